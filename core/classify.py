@@ -1,0 +1,167 @@
+"""Sorting the voxels into ground, building and air (paper §2, figure 1).
+
+The steps are the paper's, in its order:
+
+1. ground points define ground voxels, and ground has priority: here every
+   voxel at or below the column's ground level (:mod:`core.ground`);
+2. the other points define building voxels;
+3. empty cells between the ground and a building above it become building
+   (this is what turns an airborne roof, with no facade point under it, into
+   a solid);
+4. air is flood-filled through face-adjacent empty cells from an extra empty
+   row on top of the grid;
+5. cells still unassigned (enclosed by building surfaces) become building,
+   which removes the inner and spurious surfaces of STL models.
+
+Airborne roofs have holes (dark or glass roofs, vegetation classified over
+them): a column with neither ground nor building return, enclosed mostly by
+building columns, would otherwise become a well of air down to the ground.
+:func:`roof_hole_columns` finds them so that :func:`classify_voxels` can seed
+them at the height of the roof around them.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from scipy import ndimage
+
+from .errors import Cancelled
+from .grid import VoxelGrid
+
+UNASSIGNED, GROUND, BUILDING, AIR = 0, 1, 2, 3
+
+#: Face adjacency (6-connectivity) in 3-D, as the paper's advancing fronts use.
+FACE_ADJACENCY = ndimage.generate_binary_structure(3, 1)
+
+
+def classify_voxels(grid: VoxelGrid, ground_top_k: np.ndarray, building_cells: np.ndarray,
+                    roof_seeds: np.ndarray | None = None,
+                    is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
+    """Label every voxel ground, building or air.
+
+    Parameters
+    ----------
+    grid : VoxelGrid
+    ground_top_k : ndarray of int, shape (nx, ny)
+        Highest ground voxel of each column.
+    building_cells : ndarray of int, shape (B, 3)
+        Cells ``(i, j, k)`` holding at least one non-ground point.
+    roof_seeds : ndarray of int, shape (S, 3), optional
+        Extra building cells (roof holes, see :func:`roof_hole_columns`).
+    is_cancelled : callable, optional
+
+    Returns
+    -------
+    ndarray of uint8, shape grid.shape
+        ``GROUND``, ``BUILDING`` or ``AIR`` for every voxel.
+
+    Examples
+    --------
+    A 1 x 1 column of 6 voxels, ground up to k = 1, one roof point at k = 3:
+    the gap under the roof becomes building, the rest air.
+
+    >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (1, 1, 6))
+    >>> classify_voxels(g, np.array([[1]]), np.array([[0, 0, 3]])).ravel()
+    array([1, 1, 2, 2, 3, 3], dtype=uint8)
+    """
+    nx, ny, nz = grid.shape
+    k = np.arange(nz, dtype=np.int32)
+    labels = np.zeros(grid.shape, dtype=np.uint8)
+    is_ground = k[None, None, :] <= ground_top_k[:, :, None]
+    labels[is_ground] = GROUND
+
+    cells = building_cells if roof_seeds is None else np.concatenate([building_cells, roof_seeds])
+    if len(cells):
+        above = cells[:, 2] > ground_top_k[cells[:, 0], cells[:, 1]]  # ground wins
+        cells = cells[above]
+        labels[cells[:, 0], cells[:, 1], cells[:, 2]] = BUILDING
+        # Gap between ground and the lowest building cell of each column.
+        lowest = np.full((nx, ny), nz, dtype=np.int64)
+        np.minimum.at(lowest, (cells[:, 0], cells[:, 1]), cells[:, 2])
+        gap = (k[None, None, :] < lowest[:, :, None]) & ~is_ground & (lowest[:, :, None] < nz)
+        labels[gap] = BUILDING
+    del is_ground
+    if is_cancelled is not None and is_cancelled():
+        raise Cancelled()
+
+    # Advancing front of air from the empty top row, through face-adjacent
+    # empty cells: a connected-component labelling does the same in C.
+    empty = labels == UNASSIGNED
+    components, _ = ndimage.label(empty, structure=FACE_ADJACENCY)
+    del empty
+    air_ids = np.unique(components[:, :, -1])
+    air_ids = air_ids[air_ids > 0]
+    air = np.isin(components, air_ids)
+    del components
+    labels[air] = AIR
+    labels[labels == UNASSIGNED] = BUILDING
+    return labels
+
+
+def roof_hole_columns(building_columns: np.ndarray, ground_columns: np.ndarray,
+                      building_top_k: np.ndarray, max_hole_cells: int,
+                      min_building_share: float = 0.5) -> np.ndarray:
+    """Seed cells for roof holes of airborne point clouds.
+
+    A roof hole is a 4-connected group of columns with no return at all
+    (neither ground nor building) whose rim is mostly building columns and
+    whose area is at most ``max_hole_cells`` columns. A courtyard has ground
+    returns, and a tree in a yard is ringed by ground columns, so neither is
+    filled. Each hole column is seeded at the top of the nearest building
+    column, so the gap rule of :func:`classify_voxels` makes it solid.
+
+    Parameters
+    ----------
+    building_columns, ground_columns : ndarray of bool, shape (nx, ny)
+        Columns with at least one building / ground point.
+    building_top_k : ndarray of int, shape (nx, ny)
+        Highest building cell of each building column.
+    max_hole_cells : int
+        Largest hole that is filled, in columns.
+    min_building_share : float
+        Fraction of rim columns that must be building columns.
+
+    Returns
+    -------
+    ndarray of int, shape (S, 3)
+        Building cells to add.
+
+    Examples
+    --------
+    >>> b = np.ones((3, 3), bool); b[1, 1] = False
+    >>> g = np.zeros((3, 3), bool)
+    >>> roof_hole_columns(b, g, np.full((3, 3), 7), max_hole_cells=4)
+    array([[1, 1, 7]])
+    """
+    empty = ~building_columns & ~ground_columns
+    holes, n = ndimage.label(empty)
+    if n == 0:
+        return np.zeros((0, 3), dtype=np.int64)
+    area = np.bincount(holes.ravel(), minlength=n + 1)
+    # Rim of each hole: its empty columns' 4-neighbours that are not empty.
+    rim_building = np.zeros(n + 1)
+    rim_total = np.zeros(n + 1)
+    touches_border = np.zeros(n + 1, bool)
+    touches_border[np.unique(np.concatenate([holes[0], holes[-1], holes[:, 0], holes[:, -1]]))] = True
+    for axis in (0, 1):
+        for step in (1, -1):
+            inner = holes
+            neighbour_is_building = np.roll(building_columns, -step, axis=axis)
+            neighbour_empty = np.roll(empty, -step, axis=axis)
+            valid = np.ones_like(empty)
+            edge = [slice(None)] * 2
+            edge[axis] = slice(-1, None) if step == 1 else slice(0, 1)
+            valid[tuple(edge)] = False  # np.roll wraps around: ignore the wrapped row
+            sel = (inner > 0) & ~neighbour_empty & valid
+            rim_total += np.bincount(inner[sel], minlength=n + 1)
+            rim_building += np.bincount(inner[sel], weights=neighbour_is_building[sel], minlength=n + 1)
+    share = np.divide(rim_building, rim_total, out=np.zeros_like(rim_total), where=rim_total > 0)
+    fill = (area <= max_hole_cells) & (share >= min_building_share) & ~touches_border
+    fill[0] = False
+    hole_mask = fill[holes]
+    if not hole_mask.any():
+        return np.zeros((0, 3), dtype=np.int64)
+    _, (ni, nj) = ndimage.distance_transform_edt(~building_columns, return_indices=True)
+    hi, hj = np.nonzero(hole_mask)
+    return np.column_stack([hi, hj, building_top_k[ni[hi, hj], nj[hi, hj]]]).astype(np.int64)

@@ -1,0 +1,404 @@
+"""The method end to end: data in, voxel model, blocks and surfaces out.
+
+:func:`reconstruct_point_cloud` and :func:`reconstruct_mesh` read their
+input into ground points and building points (world coordinates), and
+:func:`reconstruct_points` runs the paper's steps on them in order:
+
+=======================================  ==========================  ======
+step                                     module                      paper
+=======================================  ==========================  ======
+lattice around the data                  :mod:`core.grid`            §2
+ground level of every column             :mod:`core.ground`          §2
+ground / building / air                  :mod:`core.classify`        §2
+well-composed labels                     :mod:`core.manifold`        §3.3
+blocks and thresholds                    :mod:`core.blocks`          §3.1-2
+unsupported boundary voxels              :mod:`core.eliminate`       §3.4
+conforming surfaces                      :mod:`core.surface`         §3.3
+=======================================  ==========================  ======
+
+Every function takes ``progress(fraction, message)`` and ``is_cancelled()``
+callables; a cancelled run raises :class:`~core.errors.Cancelled` before
+anything is written.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from .blocks import BlockTable, block_attributes, drop_blocks, label_blocks, small_blocks
+from .classify import AIR, classify_voxels, roof_hole_columns
+from .crs import metres_per_unit, resolve_crs
+from .eliminate import unsupported_voxels
+from .errors import Cancelled, UrbanvoxError
+from .grid import VoxelGrid, check_memory
+from .ground import column_ground_level
+from .manifold import make_well_composed, repair_height_field
+from .surface import SurfaceModel, region_volume
+
+Progress = Callable[[float, str], None]
+CancelCheck = Callable[[], bool]
+
+
+@dataclass
+class ReconstructionParams:
+    """User parameters; lengths in metres, converted to CRS units internally.
+
+    Attributes
+    ----------
+    voxel_size : float
+        Edge of a voxel (m).
+    min_height, min_footprint, min_volume : float
+        Blocks below any of these (m, m², m³) are dropped (paper §3.2).
+    support : float
+        Boundary voxel elimination distance, in voxel sizes (paper §3.4: 0.6).
+    max_roof_hole_area : float
+        Largest roof hole of a point cloud that is filled (m², see
+        :func:`core.classify.roof_hole_columns`).
+    max_memory : int, optional
+        Bytes the voxel grid may use; default: the memory available.
+    """
+
+    voxel_size: float = 1.0
+    min_height: float = 2.5
+    min_footprint: float = 10.0
+    min_volume: float = 20.0
+    support: float = 0.6
+    max_roof_hole_area: float = 100.0
+    max_memory: int | None = None
+
+
+@dataclass
+class Reconstruction:
+    """The voxel model of a city: blocks with attributes and conforming surfaces.
+
+    Lengths in the attribute table are in CRS units; :meth:`block_rows`
+    reports them in metres.
+    """
+
+    crs: "pyproj.CRS"  # noqa: F821 - pyproj is imported lazily by the readers
+    grid: VoxelGrid
+    blocks: BlockTable
+    surface: SurfaceModel
+    footprint_columns: np.ndarray  # (P, 3): block id, i, j of every column a block covers
+    warnings: list[str] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def metres_per_unit(self) -> float:
+        return metres_per_unit(self.crs)
+
+    @property
+    def summary(self) -> dict:
+        """Block count and total volume (m³), for scripts and the Processing outputs."""
+        m = self.metres_per_unit
+        return {
+            "block_count": int(len(self.blocks)),
+            "total_volume": float(self.blocks.volume.sum() * m**3),
+            "voxel_size": float(self.grid.voxel_size * m),
+            "grid_shape": [int(n) for n in self.grid.shape],
+            "timings": {k: float(v) for k, v in self.timings.items()},
+        }
+
+    def block_rows(self) -> list[dict]:
+        """One dict per block, plain Python numbers (GPKG drops numpy scalars)."""
+        m = self.metres_per_unit
+        t = self.blocks
+        faces = self.surface.face_count_per_block(int(t.block_id.max()) if len(t) else 0)
+        z0 = self.grid.offset[2]
+        return [
+            {
+                "block_id": int(t.block_id[b]),
+                "height": float(t.height[b] * m),
+                "ground_z": float(t.ground_z[b] + z0),
+                "top_z": float(t.top_z[b] + z0),
+                "footprint_area": float(t.footprint_area[b] * m**2),
+                "volume": float(t.volume[b] * m**3),
+                "surface_area": float(faces[t.block_id[b] - 1] * (self.grid.voxel_size * m) ** 2),
+                "n_voxels": int(t.n_voxels[b]),
+            }
+            for b in range(len(t))
+        ]
+
+    def block_surface_wkb(self) -> list[bytes]:
+        """Closed outward surface of every block as MultiPolygonZ WKB, world coordinates."""
+        import shapely
+
+        s = self.surface
+        ids = self.blocks.block_id
+        lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
+        lookup[ids] = np.arange(len(ids))
+        owner = np.where(s.regions > 0, s.regions, 0)
+        quads, index = [], []
+        for side in (0, 1):  # side 0: normal already points out of the block
+            sel = np.flatnonzero(owner[:, side] > 0)
+            q = s.quads[sel] if side == 0 else s.quads[sel][:, ::-1]
+            quads.append(q)
+            index.append(lookup[owner[sel, side]])
+        quads = np.concatenate(quads)
+        index = np.concatenate(index)
+        order = np.argsort(index, kind="stable")
+        rings = self.grid.to_world(s.nodes)[quads[order]]
+        rings = np.concatenate([rings, rings[:, :1]], axis=1)
+        polygons = shapely.polygons(rings)
+        multi = shapely.multipolygons(polygons, indices=index[order])
+        return list(shapely.to_wkb(multi, output_dimension=3))
+
+    def footprint_wkb(self) -> list[bytes]:
+        """Footprint of every block (union of its columns) as Polygon WKB."""
+        import shapely
+
+        h = self.grid.voxel_size
+        b, i, j = self.footprint_columns.T
+        x0 = self.grid.offset[0] + self.grid.origin[0] + i * h
+        y0 = self.grid.offset[1] + self.grid.origin[1] + j * h
+        boxes = shapely.box(x0, y0, x0 + h, y0 + h)
+        cuts = np.searchsorted(b, self.blocks.block_id, side="left")
+        ends = np.searchsorted(b, self.blocks.block_id, side="right")
+        out = []
+        for start, stop in zip(cuts, ends):
+            shape = shapely.coverage_union_all(boxes[start:stop])
+            if shape.geom_type == "MultiPolygon":  # only touching at a corner: keep the largest
+                shape = max(shape.geoms, key=lambda g: g.area)
+            out.append(shapely.to_wkb(shape))
+        return out
+
+
+def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: str | None = None,
+                            ground_classes: str | Sequence[int] = "2",
+                            building_classes: str | Sequence[int] = "6",
+                            params: ReconstructionParams | None = None,
+                            progress: Progress | None = None,
+                            is_cancelled: CancelCheck | None = None) -> Reconstruction:
+    """Voxel model from one or several LAS/LAZ files with ground classification.
+
+    Parameters
+    ----------
+    paths : path or sequence of paths
+        LAS/LAZ files (a tile collection is read as one cloud).
+    crs : str, optional
+        CRS of the data; required when the file header has none.
+    ground_classes, building_classes : str or sequence of int
+        Class codes of the ground and of the buildings ("2", "6" in ASPRS);
+        other classes (vegetation, noise, ...) are ignored.
+    """
+    from .readers.las import parse_classes, read_point_clouds
+
+    params = params or ReconstructionParams()
+    report = _reporter(progress, is_cancelled)
+    report(0.0, "Reading point cloud")
+    if isinstance(paths, (str, Path)):
+        paths = [paths]
+    points = read_point_clouds([str(p) for p in paths], parse_classes(ground_classes),
+                               parse_classes(building_classes), crs, is_cancelled)
+    return reconstruct_points(points.ground, points.building, points.crs, params,
+                              airborne=True, warnings=list(points.warnings),
+                              progress=progress, is_cancelled=is_cancelled)
+
+
+def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | None = None,
+                     params: ReconstructionParams | None = None,
+                     progress: Progress | None = None,
+                     is_cancelled: CancelCheck | None = None) -> Reconstruction:
+    """Voxel model from a building mesh (STL/OBJ/PLY/OFF) of any quality.
+
+    Triangles are sampled so neighbouring points are at most 10 % of a voxel
+    apart (paper §2). Without ``ground_path`` the ground passes through the
+    bottom of every building part (:func:`core.readers.mesh.base_points`).
+    """
+    from .readers.mesh import base_points, read_triangles
+    from .sampling import estimate_sample_count, sample_triangles
+
+    params = params or ReconstructionParams()
+    report = _reporter(progress, is_cancelled)
+    report(0.0, "Reading mesh")
+    crs_obj = resolve_crs(None, crs, str(path))
+    h = params.voxel_size / metres_per_unit(crs_obj)
+    triangles = read_triangles(str(path), is_cancelled)
+    warnings = list(triangles.warnings)
+    spacing = 0.1 * h
+    meshes = [triangles.corners()]
+    ground_triangles = None
+    if ground_path:
+        ground_triangles = read_triangles(str(ground_path), is_cancelled)
+        meshes.append(ground_triangles.corners())
+    n_samples = sum(estimate_sample_count(c, spacing) for c in meshes)
+    _check_sample_memory(n_samples, params)
+    report(0.05, f"Sampling triangles ({n_samples:,} points)")
+    building = sample_triangles(meshes[0], spacing)
+    if ground_triangles is not None:
+        ground = sample_triangles(meshes[1], spacing)
+    else:
+        ground = base_points(triangles, h)
+    return reconstruct_points(ground, building, crs_obj, params, airborne=False,
+                              warnings=warnings, progress=progress, is_cancelled=is_cancelled)
+
+
+def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: ReconstructionParams,
+                       *, airborne: bool, warnings: list[str] | None = None,
+                       progress: Progress | None = None,
+                       is_cancelled: CancelCheck | None = None) -> Reconstruction:
+    """The paper's §2-3 on ground and building points in world coordinates.
+
+    Parameters
+    ----------
+    ground, building : ndarray of shape (G, 3), (B, 3)
+        World coordinates.
+    crs : pyproj.CRS
+        Projected CRS of the coordinates.
+    params : ReconstructionParams
+    airborne : bool
+        Point cloud seen from above: roof holes are filled and walls are
+        supported by the roof edge above them (see :mod:`core.eliminate`).
+    """
+    report = _reporter(progress, is_cancelled)
+    warnings = list(warnings or [])
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(name: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[name] = now - clock
+        clock = now
+
+    m = metres_per_unit(crs)
+    h = params.voxel_size / m
+    if not np.isfinite(h) or h <= 0:
+        raise UrbanvoxError(f"The voxel size must be a positive number (got {params.voxel_size}).")
+    ground = _finite(ground, "ground", warnings)
+    building = _finite(building, "building", warnings)
+    if len(ground) == 0:
+        raise UrbanvoxError("No ground point: check the ground classes (GROUND_CLASSES) "
+                            "or give a ground mesh.")
+
+    # A global lattice (multiples of the voxel size in world coordinates) with
+    # one ground layer under the lowest point and the paper's empty top row.
+    everything = np.concatenate([ground, building]) if len(building) else ground
+    lower = np.floor(everything.min(axis=0) / h) * h - np.array([0.0, 0.0, h])
+    upper = everything.max(axis=0)
+    del everything
+    grid = VoxelGrid.around(np.zeros(3), upper - lower, h, offset=lower, extra_top=1)
+    check_memory(grid.shape, params.voxel_size, params.max_memory)
+    ground = ground - lower
+    building = building - lower
+    lap("grid")
+
+    report(0.2, "Ground level of every column")
+    level = column_ground_level(grid, ground)
+    top_k = repair_height_field(level.top_k)
+    building_cells = _occupied_cells(grid, building)
+    lap("ground")
+
+    report(0.3, "Sorting voxels into ground, building and air")
+    seeds = None
+    if airborne and len(building_cells):
+        seeds = _roof_seeds(grid, building_cells, top_k, level.observed,
+                            params.max_roof_hole_area / m**2)
+        if len(seeds):
+            warnings.append(f"Filled {len(seeds)} roof-hole columns "
+                            f"({len(seeds) * (h * m) ** 2:.0f} m²) with no return under them.")
+    labels = classify_voxels(grid, top_k, building_cells, seeds, is_cancelled)
+    make_well_composed(labels, is_cancelled=is_cancelled)
+    lap("classify")
+
+    report(0.45, "Building blocks")
+    thresholds = (params.min_height / m, params.min_footprint / m**2, params.min_volume / m**3)
+    blocks, table, dropped = _blocks_above_thresholds(labels, grid, thresholds, is_cancelled)
+    lap("blocks")
+
+    report(0.6, "Eliminating unsupported boundary voxels")
+    removed = unsupported_voxels(labels, grid, building, params.support, extrude_roofs=airborne,
+                                 is_cancelled=is_cancelled)
+    labels[removed[:, 0], removed[:, 1], removed[:, 2]] = AIR
+    make_well_composed(labels, is_cancelled=is_cancelled)
+    blocks, table, dropped_after = _blocks_above_thresholds(labels, grid, thresholds, is_cancelled)
+    lap("eliminate")
+    if dropped or dropped_after:
+        warnings.append(f"Dropped {dropped + dropped_after} blocks below the thresholds "
+                        f"(height {params.min_height:g} m, footprint {params.min_footprint:g} m², "
+                        f"volume {params.min_volume:g} m³).")
+    if len(table) == 0:
+        warnings.append("No building block in the result.")
+
+    report(0.8, "Conforming surfaces")
+    surface = SurfaceModel.from_regions(grid, region_volume(labels, blocks))
+    columns = _footprint_columns(blocks, grid)
+    lap("surface")
+    report(1.0, f"{len(table)} blocks")
+    return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface,
+                          footprint_columns=columns, warnings=warnings, timings=timings)
+
+
+def _blocks_above_thresholds(labels, grid, thresholds, is_cancelled):
+    """Label blocks, drop the small ones, repeat until nothing is dropped."""
+    total_dropped = 0
+    while True:
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
+        blocks, n = label_blocks(labels)
+        table = block_attributes(blocks, n, grid)
+        small = small_blocks(table, *thresholds)
+        if not small.any():
+            return blocks, table, total_dropped
+        drop_blocks(labels, blocks, table.block_id[small])
+        total_dropped += int(small.sum())
+        make_well_composed(labels, is_cancelled=is_cancelled)
+
+
+def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):
+    nx, ny, _ = grid.shape
+    above = building_cells[:, 2] > top_k[building_cells[:, 0], building_cells[:, 1]]
+    cells = building_cells[above]
+    has_building = np.zeros((nx, ny), bool)
+    has_building[cells[:, 0], cells[:, 1]] = True
+    highest = np.zeros((nx, ny), np.int64)
+    np.maximum.at(highest, (cells[:, 0], cells[:, 1]), cells[:, 2])
+    return roof_hole_columns(has_building, ground_observed, highest, int(max_hole_cells))
+
+
+def _occupied_cells(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
+    """Distinct cells holding at least one point, via the paper's voxel number."""
+    nx, ny, _ = grid.shape
+    number = np.unique(grid.voxel_number(grid.cell_of(points)))
+    return np.column_stack([number % nx, (number // nx) % ny, number // (nx * ny)])
+
+
+def _footprint_columns(blocks: np.ndarray, grid: VoxelGrid) -> np.ndarray:
+    nx, ny, _ = grid.shape
+    i, j, k = np.nonzero(blocks)
+    key = np.unique(blocks[i, j, k].astype(np.int64) * (nx * ny) + i * ny + j)
+    return np.column_stack([key // (nx * ny), (key % (nx * ny)) // ny, key % ny])
+
+
+def _finite(points: np.ndarray, what: str, warnings: list[str]) -> np.ndarray:
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    ok = np.isfinite(points).all(axis=1)
+    if not ok.all():
+        warnings.append(f"Ignored {int((~ok).sum())} {what} points with non-finite coordinates.")
+        points = points[ok]
+    return points
+
+
+def _check_sample_memory(n_samples: int, params: ReconstructionParams) -> None:
+    from .grid import available_memory
+
+    needed = n_samples * 3 * 8 * 3  # points, cells and sort buffers
+    available = params.max_memory or available_memory()
+    if needed > available:
+        raise UrbanvoxError(
+            f"Sampling the mesh at 10 % of a {params.voxel_size:g} m voxel needs {n_samples:,} points "
+            f"(about {needed / 2**30:.1f} GiB) but only {available / 2**30:.1f} GiB is available: "
+            f"use a larger voxel size.")
+
+
+def _reporter(progress: Progress | None, is_cancelled: CancelCheck | None) -> Progress:
+    def report(fraction: float, message: str) -> None:
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
+        if progress is not None:
+            progress(fraction, message)
+    return report
