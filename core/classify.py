@@ -85,18 +85,38 @@ def classify_voxels(grid: VoxelGrid, ground_top_k: np.ndarray, building_cells: n
     if is_cancelled is not None and is_cancelled():
         raise Cancelled()
 
-    # Advancing front of air from the empty top row, through face-adjacent
-    # empty cells: a connected-component labelling does the same in C.
-    empty = labels == UNASSIGNED
-    components, _ = ndimage.label(empty, structure=FACE_ADJACENCY)
-    del empty
-    air_ids = np.unique(components[:, :, -1])
-    air_ids = air_ids[air_ids > 0]
-    air = np.isin(components, air_ids)
-    del components
-    labels[air] = AIR
-    labels[labels == UNASSIGNED] = BUILDING
+    labels[labels == UNASSIGNED] = AIR
+    enclose_air(labels)
     return labels
+
+
+def enclose_air(labels: np.ndarray) -> int:
+    """Keep as air only the cells the air front reaches; the rest become building.
+
+    The paper's advancing front of air starts from an empty cell of the top
+    row and crosses faces only; every cell it does not reach is enclosed by
+    building surfaces and becomes building. Works in place.
+
+    Returns
+    -------
+    int
+        Number of air cells turned into building.
+
+    Examples
+    --------
+    >>> lab = np.full((3, 3, 3), BUILDING, np.uint8); lab[1, 1, 0] = AIR; lab[:, :, 2] = AIR
+    >>> enclose_air(lab), lab[1, 1, 0] == BUILDING
+    (1, True)
+    """
+    # A connected-component labelling finds the same front in C.
+    components, _ = ndimage.label(labels == AIR, structure=FACE_ADJACENCY)
+    top_ids = np.unique(components[:, :, -1])
+    reached = np.zeros(int(components.max()) + 1, dtype=bool)
+    reached[top_ids[top_ids > 0]] = True
+    enclosed = (components > 0) & ~reached[components]
+    del components
+    labels[enclosed] = BUILDING
+    return int(np.count_nonzero(enclosed))
 
 
 def roof_hole_columns(building_columns: np.ndarray, ground_columns: np.ndarray,

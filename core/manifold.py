@@ -24,7 +24,7 @@ from typing import Callable
 
 import numpy as np
 
-from .classify import AIR, BUILDING
+from .classify import AIR, BUILDING, enclose_air
 from .errors import Cancelled
 
 #: Corners of a 2 x 2 x 2 cube, bit b of a cube code is corner CORNERS[b].
@@ -81,6 +81,9 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 200,
                        is_cancelled: Callable[[], bool] | None = None) -> int:
     """Turn air voxels into building until buildings and solids are well-composed.
 
+    Air pockets cut off by the filling become building too, so the air stays
+    one volume.
+
     Works in place on ``labels`` (``GROUND``/``BUILDING``/``AIR``); the ground
     must already be a repaired height field.
 
@@ -106,7 +109,14 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 200,
         sub = labels[box]
         targets = _critical_air_cells(sub)
         if len(targets) == 0:
-            return added
+            # Filling may have cut pockets off the air: they are enclosed, so
+            # building (paper §2), and that may create new critical patterns.
+            enclosed = enclose_air(labels)
+            if enclosed == 0:
+                return added
+            added += enclosed
+            box = tuple(slice(0, n) for n in labels.shape)
+            continue
         targets += np.array([s.start for s in box])
         targets = np.unique(targets, axis=0)
         labels[targets[:, 0], targets[:, 1], targets[:, 2]] = BUILDING

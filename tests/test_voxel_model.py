@@ -1,0 +1,198 @@
+"""Voxel model steps (§2-3.4) on small grids with known answers."""
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from core.blocks import block_attributes, label_blocks, small_blocks
+from core.classify import AIR, BUILDING, GROUND, classify_voxels, roof_hole_columns
+from core.eliminate import unsupported_voxels
+from core.errors import UrbanvoxError
+from core.grid import VoxelGrid, check_memory
+from core.ground import column_ground_level
+from core.manifold import make_well_composed, repair_height_field
+from core.surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel, region_volume
+from core.topology import check_surface, signed_volume
+
+
+def box_shell_points(lo, hi, spacing):
+    """Points on the six faces of an axis-aligned box (an STL-like closed surface)."""
+    axes = [np.arange(lo[a], hi[a] + 1e-9, spacing) for a in range(3)]
+    pts = []
+    for a in range(3):
+        b, c = [x for x in range(3) if x != a]
+        gb, gc = np.meshgrid(axes[b], axes[c], indexing="ij")
+        for value in (lo[a], hi[a]):
+            p = np.zeros((gb.size, 3))
+            p[:, a] = value
+            p[:, b] = gb.ravel()
+            p[:, c] = gc.ravel()
+            pts.append(p)
+    return np.concatenate(pts)
+
+
+def grid_of(shape, h=1.0):
+    return VoxelGrid(np.zeros(3), np.zeros(3), h, shape)
+
+
+def test_closed_shell_with_inner_surface_becomes_one_solid_block():
+    # A 6 x 4 x 5 box on flat ground at z = 1.0, plus an inner wall: the paper's
+    # figure 2b. The interior (not reachable by the air) must become building.
+    g = grid_of((12, 10, 10))
+    shell = box_shell_points((3.0, 3.0, 1.0), (9.0, 7.0, 6.0), 0.1)
+    inner = box_shell_points((6.0, 3.0, 1.0), (6.0, 7.0, 6.0), 0.1)
+    cells = np.unique(g.cell_of(np.concatenate([shell, inner])), axis=0)
+    ground_top = np.zeros((12, 10), np.int64)  # voxels k = 0 are ground (z < 1)
+    labels = classify_voxels(g, ground_top, cells)
+    blocks, n = label_blocks(labels)
+    assert n == 1
+    # x in [3, 9] -> cells 3..9, y 3..7, z 1..6 (the top face at z = 6 lies in k = 6)
+    assert (labels[3:10, 3:8, 1:7] == BUILDING).all()
+    assert np.count_nonzero(labels == BUILDING) == 7 * 5 * 6
+    assert (labels[:, :, 0] == GROUND).all()
+    assert np.count_nonzero(labels == AIR) == 12 * 10 * 10 - 12 * 10 - 7 * 5 * 6
+
+
+def test_gap_between_ground_and_roof_becomes_building():
+    g = grid_of((3, 3, 8))
+    roof = np.array([[1, 1, 5]])
+    labels = classify_voxels(g, np.full((3, 3), 1), roof)
+    assert list(labels[1, 1]) == [GROUND, GROUND, BUILDING, BUILDING, BUILDING, BUILDING, AIR, AIR]
+    assert (labels[0, 0, 2:] == AIR).all()
+
+
+def test_ground_has_priority_over_building_points():
+    g = grid_of((2, 2, 6))
+    labels = classify_voxels(g, np.full((2, 2), 2), np.array([[0, 0, 1], [0, 0, 2]]))
+    assert not (labels == BUILDING).any()
+
+
+def test_roof_hole_is_filled_but_courtyard_and_yard_tree_are_not():
+    n = 30
+    building = np.zeros((n, n), bool)
+    ground = np.ones((n, n), bool)
+    # building ring 4..25 with a 2x2 hole (no return) and a 10x10 courtyard (ground returns)
+    building[4:26, 4:26] = True
+    ground[4:26, 4:26] = False
+    building[8:10, 8:10] = False            # roof hole, no return
+    building[12:22, 12:22] = False          # courtyard
+    ground[12:22, 12:22] = True
+    ground[27:29, 1:3] = False              # tree in the yard: no ground return
+    top = np.where(building, 12, 0)
+    seeds = roof_hole_columns(building, ground, top, max_hole_cells=50)
+    assert sorted(map(tuple, seeds[:, :2])) == [(8, 8), (8, 9), (9, 8), (9, 9)]
+    assert (seeds[:, 2] == 12).all()
+
+
+def test_ground_level_is_interpolated_under_roofs():
+    g = grid_of((20, 20, 30), h=1.0)
+    x, y = np.meshgrid(np.arange(20) + 0.5, np.arange(20) + 0.5, indexing="ij")
+    z = 5.0 + 0.1 * x + 0.05 * y
+    roof = (x > 6) & (x < 14) & (y > 6) & (y < 14)
+    pts = np.column_stack([x[~roof], y[~roof], z[~roof]])
+    level = column_ground_level(g, pts)
+    assert np.allclose(level.z, z, atol=1e-9)          # a plane is interpolated exactly
+    assert not level.observed[roof].any()
+    # voxel (i, j, k) is ground when its centre k + 0.5 <= z
+    assert np.array_equal(level.top_k, np.floor(z - 0.5).astype(int))
+
+
+def test_memory_guard_refuses_before_allocating():
+    with pytest.raises(UrbanvoxError, match="voxel size of at least"):
+        check_memory((20000, 20000, 300), 0.25, available=8 * 2**30)
+
+
+def test_height_field_repair_removes_diagonal_patterns():
+    rng = np.random.default_rng(1)
+    top = rng.integers(0, 6, size=(40, 40))
+    fixed = repair_height_field(top)
+    assert (fixed >= top).all()
+    a, b, c, d = fixed[:-1, :-1], fixed[1:, :-1], fixed[1:, 1:], fixed[:-1, 1:]
+    assert not (np.minimum(a, c) > np.maximum(b, d)).any()
+    assert not (np.minimum(b, d) > np.maximum(a, c)).any()
+
+
+def random_model(seed, shape=(24, 22, 14)):
+    """Random ground and random building blobs: the worst case for manifoldness."""
+    rng = np.random.default_rng(seed)
+    g = grid_of(shape)
+    top = repair_height_field(rng.integers(0, 3, size=shape[:2]))
+    cells = np.argwhere(rng.random(shape) < 0.06)
+    cells = cells[cells[:, 2] < shape[2] - 2]
+    labels = classify_voxels(g, top, cells)
+    make_well_composed(labels)
+    return g, labels
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_every_region_surface_is_closed_manifold_and_conforming(seed):
+    g, labels = random_model(seed)
+    blocks, n = label_blocks(labels)
+    assert n > 0
+    regions = region_volume(labels, blocks)
+    model = SurfaceModel.from_regions(g, regions)
+    # Conforming: every face separates two different regions and no face is duplicated.
+    assert (model.regions[:, 0] != model.regions[:, 1]).all()
+    assert len(np.unique(np.sort(model.quads, axis=1), axis=0)) == len(model.quads)
+    total = 0.0
+    for r in list(range(1, n + 1)) + [GROUND_REGION, AIR_REGION]:
+        quads = model.closed_surface(r)
+        report = check_surface(quads)
+        assert report.ok, (r, report)
+        vol = signed_volume(model.nodes, quads)
+        assert vol == pytest.approx(np.count_nonzero(regions == r))  # outward, exact
+        total += vol
+    assert total == pytest.approx(np.prod(g.shape))
+    # The air is one volume (paper §3 assumption) and so is the ground.
+    air, n_air = ndimage.label(labels == AIR, structure=ndimage.generate_binary_structure(3, 1))
+    assert n_air == 1
+
+
+def test_block_attributes_and_thresholds():
+    g = grid_of((10, 10, 10), h=0.5)
+    labels = np.full(g.shape, AIR, np.uint8)
+    labels[:, :, 0] = GROUND
+    labels[1:5, 1:3, 1:7] = BUILDING     # 4 x 2 columns, 6 voxels high
+    labels[8, 8, 1:3] = BUILDING         # a shed: 1 column, 1 m high
+    blocks, n = label_blocks(labels)
+    t = block_attributes(blocks, n, g)
+    assert n == 2
+    assert t.volume.tolist() == [48 * 0.125, 2 * 0.125]
+    assert t.footprint_area.tolist() == [8 * 0.25, 0.25]
+    assert t.height.tolist() == [3.0, 1.0]
+    assert t.ground_z.tolist() == [0.5, 0.5]
+    assert small_blocks(t, 2.5, 1.0, 0.0).tolist() == [False, True]
+
+
+def test_elimination_keeps_voxels_sharing_enough_volume():
+    # A wall of building voxels x in [2, 5); data: the true facade at x = 4.5,
+    # so the voxel x in [4, 5) is half inside: face at 5 is 0.5 from the data: kept.
+    # Another facade at x = 7.3 in voxel [7, 8): face at 8 is 0.7 away: eliminated.
+    g = grid_of((12, 3, 6))
+    labels = np.full(g.shape, AIR, np.uint8)
+    labels[:, :, 0] = GROUND
+    labels[2:5, :, 1:4] = BUILDING
+    labels[7:10, :, 1:4] = BUILDING
+    ys, zs = np.meshgrid(np.arange(0.05, 3, 0.1), np.arange(1.05, 4, 0.1), indexing="ij")
+    def wall(x):
+        return np.column_stack([np.full(ys.size, x), ys.ravel(), zs.ravel()])
+    xs, ys2 = np.meshgrid(np.arange(0.05, 12, 0.1), np.arange(0.05, 3, 0.1), indexing="ij")
+    roofs = np.column_stack([xs.ravel(), ys2.ravel(), np.full(xs.size, 3.9)])
+    roofs = roofs[((roofs[:, 0] > 2) & (roofs[:, 0] < 4.5)) | ((roofs[:, 0] > 7) & (roofs[:, 0] < 7.3))]
+    pts = np.concatenate([wall(2.0), wall(4.5), wall(7.0), wall(7.3), roofs])
+    removed = unsupported_voxels(labels, g, pts)
+    assert set(map(tuple, removed[:, :2])) == {(9, 0), (9, 1), (9, 2), (8, 0), (8, 1), (8, 2)} or \
+        set(removed[:, 0]) == {8, 9}
+    assert 4 not in set(removed[:, 0])
+
+
+def test_airborne_walls_are_supported_by_the_roof_edge_above():
+    g = grid_of((8, 3, 8))
+    labels = np.full(g.shape, AIR, np.uint8)
+    labels[:, :, 0] = GROUND
+    labels[2:6, :, 1:6] = BUILDING
+    xs, ys = np.meshgrid(np.arange(2.05, 6, 0.1), np.arange(0.05, 3, 0.1), indexing="ij")
+    roof = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 5.8)])
+    assert len(unsupported_voxels(labels, g, roof, extrude_roofs=True)) == 0
+    # Without the extrusion rule every wall voxel below the roof voxel would go.
+    removed = unsupported_voxels(labels, g, roof, extrude_roofs=False)
+    assert set(removed[:, 0]) == {2, 5} and removed[:, 2].max() < 5
