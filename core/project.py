@@ -1,0 +1,188 @@
+"""Nodal normals and projection of the nodes onto the data (§4.2).
+
+For every node: its normal is the mean of the normals of its faces, each
+quad split into the two triangles that maximise the shape quality
+(:func:`core.quality.best_split`). Then, as in the paper:
+
+1. the data point closest to the line through the node along its normal is
+   chosen among the points near the node;
+2. the data points around it fit a moving-least-squares plane (weighted
+   principal axes, Gaussian weights);
+3. if that plane's normal is compatible with the node's (angle below
+   ``max_angle``), the node moves along its normal onto the plane;
+   otherwise the next data point is tried;
+4. the move is kept only if the faces around the node stay acceptable
+   (:func:`core.quality.accept_moves`).
+
+Everything is batched over nodes (KD-tree queries and a batched 3 x 3
+eigen-solver); the candidate loop runs a fixed few times, not per node.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from .errors import Cancelled
+from .quality import accept_moves, best_split
+from .smooth import NodeRoles
+from .surface import GROUND_REGION, SurfaceModel
+
+#: Data points examined around each node, planes tried per node, points per plane.
+_NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
+
+
+def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
+    """Unit normal of every node: mean of the unit normals of its quads.
+
+    Each quad's normal is the sum of the normals of the two triangles of its
+    best split; nodes touched by no quad get a zero vector.
+
+    Examples
+    --------
+    >>> nodes = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    >>> node_normals(nodes, np.array([[0, 1, 2, 3]]), 4)[0]
+    array([0., 0., 1.])
+    """
+    triangles, _ = best_split(nodes, quads)
+    p = nodes[triangles]
+    tri_normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    quad_normal = tri_normal[0::2] + tri_normal[1::2]
+    quad_normal /= np.maximum(np.linalg.norm(quad_normal, axis=1, keepdims=True), 1e-300)
+    corners = quads.ravel()
+    summed = np.column_stack([np.bincount(corners, weights=np.repeat(quad_normal[:, c], 4), minlength=n)
+                              for c in range(3)])
+    length = np.linalg.norm(summed, axis=1, keepdims=True)
+    return np.divide(summed, length, out=np.zeros_like(summed), where=length > 0)
+
+
+def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles) -> np.ndarray:
+    """Normals pointing out of the region that owns each node (block, else ground)."""
+    a, b = model.regions[:, 0], model.regions[:, 1]
+    n = len(nodes)
+    block_faces = (a > 0) | (b > 0)
+    block_quads = np.where((b > 0)[block_faces, None], model.quads[block_faces][:, ::-1],
+                           model.quads[block_faces])
+    ground_faces = (a == GROUND_REGION) | (b == GROUND_REGION)
+    ground_quads = np.where((b == GROUND_REGION)[ground_faces, None], model.quads[ground_faces][:, ::-1],
+                            model.quads[ground_faces])
+    return np.where(roles.on_block[:, None], node_normals(nodes, block_quads, n),
+                    node_normals(nodes, ground_quads, n))
+
+
+def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
+               k: int = _PLANE_POINTS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Weighted least-squares planes of the data around points ``at``.
+
+    Returns
+    -------
+    centre : ndarray (Q, 3)
+        Weighted centroid, a point of the plane.
+    normal : ndarray (Q, 3)
+        Unit normal (smallest principal axis).
+    flat : ndarray of bool (Q,)
+        The neighbourhood spans a plane (not a line or a point).
+    """
+    k = min(k, len(data))
+    dist, idx = tree.query(at, k=k, workers=-1)
+    dist = dist.reshape(len(at), k)
+    idx = idx.reshape(len(at), k)
+    x = data[idx]
+    w = np.exp(-(dist / sigma) ** 2)
+    w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
+    centre = np.einsum("qk,qkc->qc", w, x)
+    d = x - centre[:, None, :]
+    cov = np.einsum("qk,qki,qkj->qij", w, d, d)
+    values, vectors = np.linalg.eigh(cov)
+    flat = values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
+    return centre, vectors[:, :, 0], flat
+
+
+def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, select: np.ndarray,
+                  data: np.ndarray, voxel_size: float, threshold: float,
+                  max_angle: float = 45.0, max_distance: float = 1.5,
+                  is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, dict]:
+    """Project the ``select`` nodes onto ``data`` through MLS planes.
+
+    Parameters
+    ----------
+    model : SurfaceModel
+    nodes : ndarray (N, 3)
+        Current (smoothed) positions.
+    roles : NodeRoles
+    select : ndarray of bool (N,)
+        Nodes to project on this data set.
+    data : ndarray (P, 3)
+        Data points (local coordinates).
+    voxel_size : float
+    threshold : float
+        Minimum face quality.
+    max_angle : float
+        Largest angle (degrees) between a node normal and a plane normal.
+    max_distance : float
+        Largest move and search radius, in voxel sizes.
+
+    Returns
+    -------
+    nodes : ndarray (N, 3)
+    stats : dict
+        ``projected`` (moves kept), ``no_plane`` (no compatible plane) and
+        ``refused`` (moves undone by the quality control).
+    """
+    select = select & roles.movable
+    idx_nodes = np.flatnonzero(select)
+    stats = {"projected": 0, "no_plane": 0, "refused": 0}
+    if len(idx_nodes) == 0 or len(data) < 3:
+        return nodes, stats
+    normal = outward_normals(model, nodes, roles)[idx_nodes]
+    # Constrained coordinates are not moved: drop them from the direction.
+    normal[roles.fixed_axes[idx_nodes]] = 0.0
+    length = np.linalg.norm(normal, axis=1, keepdims=True)
+    usable = length[:, 0] > 1e-6
+    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    p = nodes[idx_nodes]
+    tree = cKDTree(data)
+    radius = max_distance * voxel_size
+    k = min(_NEAR, len(data))
+    dist, near = tree.query(p, k=k, distance_upper_bound=radius, workers=-1)
+    near = near.reshape(len(p), k)
+    found = near < len(data)
+    offset = data[np.where(found, near, 0)] - p[:, None, :]
+    along = np.einsum("qkc,qc->qk", offset, normal)
+    off_line = np.linalg.norm(offset - along[..., None] * normal[:, None, :], axis=2)
+    off_line[~found] = np.inf
+    ranked = np.argsort(off_line, axis=1)[:, :_TRIES]
+    cos_max = np.cos(np.radians(max_angle))
+    target = p.copy()
+    done = ~usable
+    for attempt in range(ranked.shape[1]):
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
+        todo = np.flatnonzero(~done & np.isfinite(off_line[np.arange(len(p)), ranked[:, attempt]]))
+        if len(todo) == 0:
+            break
+        chosen = data[near[todo, ranked[todo, attempt]]]
+        centre, plane_normal, flat = mls_planes(data, tree, chosen, sigma=0.5 * voxel_size)
+        cos = np.einsum("qc,qc->q", plane_normal, normal[todo])
+        compatible = flat & (np.abs(cos) >= cos_max)
+        t = np.einsum("qc,qc->q", centre - p[todo], plane_normal) / np.where(compatible, cos, 1.0)
+        compatible &= np.abs(t) <= radius
+        ok = todo[compatible]
+        target[ok] = p[ok] + t[compatible, None] * normal[ok]
+        done[ok] = True
+    stats["no_plane"] = int((~done).sum())
+    proposal = nodes.copy()
+    proposal[idx_nodes] = np.where(roles.fixed_axes[idx_nodes], p, target)
+    wanted = np.any(proposal != nodes, axis=1)
+    result, kept = accept_moves(nodes, proposal, model.quads, threshold)
+    stats["projected"] = int((wanted & kept).sum())
+    stats["refused"] = int((wanted & ~kept).sum())
+    return result, stats
+
+
+def nearest_distance(points: np.ndarray, data: np.ndarray) -> np.ndarray:
+    """Distance from every point to the nearest data point."""
+    if len(data) == 0 or len(points) == 0:
+        return np.full(len(points), np.nan)
+    return cKDTree(data).query(points, k=1, workers=-1)[0]
