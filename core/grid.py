@@ -126,10 +126,11 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
     --------
     >>> check_memory((100, 100, 50), 1.0, available=10**9)
     8000000
-    >>> check_memory((10**4, 10**4, 200), 0.5, available=10**9)
-    Traceback (most recent call last):
-    ...
-    core.errors.UrbanvoxError: The voxel grid (10000 x 10000 x 200 = 20000000000 voxels at 0.5) needs about 298.0 GiB but only 0.9 GiB is available. Use a voxel size of at least 3.6, or a smaller area.
+    >>> try:
+    ...     check_memory((10**4, 10**4, 200), 0.5, available=10**9)
+    ... except UrbanvoxError as error:
+    ...     print(error)
+    The voxel grid (10000 x 10000 x 200 = 20000000000 voxels at 0.5) needs about 298.0 GiB but only 0.9 GiB is available. Use a voxel size of at least 3.6, or a smaller area.
     """
     n = int(np.prod(shape, dtype=np.int64))
     needed = n * bytes_per_voxel

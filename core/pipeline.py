@@ -14,6 +14,9 @@ well-composed labels                     :mod:`core.manifold`        §3.3
 blocks and thresholds                    :mod:`core.blocks`          §3.1-2
 unsupported boundary voxels              :mod:`core.eliminate`       §3.4
 conforming surfaces                      :mod:`core.surface`         §3.3
+constrained smoothing                    :mod:`core.smooth`          §4.1
+normals and projection on the data       :mod:`core.project`         §4.2
+per-block mesh measures                  :mod:`core.measure`
 =======================================  ==========================  ======
 
 Every function takes ``progress(fraction, message)`` and ``is_cancelled()``
@@ -37,6 +40,9 @@ from .errors import Cancelled, UrbanvoxError
 from .grid import VoxelGrid, check_memory
 from .ground import column_ground_level
 from .manifold import make_well_composed, repair_height_field
+from .measure import BlockMeasures, measure_blocks
+from .project import nearest_distance, project_nodes
+from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
 
 Progress = Callable[[float, str], None]
@@ -58,6 +64,17 @@ class ReconstructionParams:
     max_roof_hole_area : float
         Largest roof hole of a point cloud that is filled (m², see
         :func:`core.classify.roof_hole_columns`).
+    smoothing_iterations : int
+        Vertex-only Catmull-Clark passes (paper §4.1: 3).
+    project : bool
+        Project the smoothed nodes onto the data (paper §4.2).
+    quality_threshold : float
+        Smallest face quality (normalised inradius / longest edge, 1 for an
+        equilateral triangle, 0.72 for a voxel face) a smoothing or
+        projection move may leave.
+    max_projection_angle : float
+        Largest angle (degrees) between a node normal and the data plane it
+        is projected on.
     max_memory : int, optional
         Bytes the voxel grid may use; default: the memory available.
     """
@@ -68,6 +85,10 @@ class ReconstructionParams:
     min_volume: float = 20.0
     support: float = 0.6
     max_roof_hole_area: float = 100.0
+    smoothing_iterations: int = 3
+    project: bool = True
+    quality_threshold: float = 0.2
+    max_projection_angle: float = 45.0
     max_memory: int | None = None
 
 
@@ -82,10 +103,13 @@ class Reconstruction:
     crs: "pyproj.CRS"  # noqa: F821 - pyproj is imported lazily by the readers
     grid: VoxelGrid
     blocks: BlockTable
-    surface: SurfaceModel
+    surface: SurfaceModel          # the voxel model's faces (§3.3-3.4)
+    mesh: SurfaceModel             # the same faces, smoothed and projected (§4)
+    measures: BlockMeasures        # of ``mesh``, per block
     footprint_columns: np.ndarray  # (P, 3): block id, i, j of every column a block covers
     warnings: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
 
     @property
     def metres_per_unit(self) -> float:
@@ -104,44 +128,62 @@ class Reconstruction:
         }
 
     def block_rows(self) -> list[dict]:
-        """One dict per block, plain Python numbers (GPKG drops numpy scalars)."""
+        """One dict per block, plain Python numbers (GPKG drops numpy scalars).
+
+        ``volume``, ``surface_area``, ``footprint_area`` and ``height`` are of
+        the voxel model (§3); ``mesh_volume``, ``mesh_area``, ``roof_area``,
+        ``facade_area``, the qualities and the distances are of the final
+        smoothed, projected mesh (§4). Lengths in metres.
+        """
         m = self.metres_per_unit
         t = self.blocks
+        me = self.measures
         faces = self.surface.face_count_per_block(int(t.block_id.max()) if len(t) else 0)
         z0 = self.grid.offset[2]
-        return [
-            {
+        rows = []
+        for b in range(len(t)):
+            index = t.block_id[b] - 1
+            rows.append({
                 "block_id": int(t.block_id[b]),
                 "height": float(t.height[b] * m),
                 "ground_z": float(t.ground_z[b] + z0),
                 "top_z": float(t.top_z[b] + z0),
                 "footprint_area": float(t.footprint_area[b] * m**2),
                 "volume": float(t.volume[b] * m**3),
-                "surface_area": float(faces[t.block_id[b] - 1] * (self.grid.voxel_size * m) ** 2),
+                "surface_area": float(faces[index] * (self.grid.voxel_size * m) ** 2),
                 "n_voxels": int(t.n_voxels[b]),
-            }
-            for b in range(len(t))
-        ]
+                "mesh_volume": float(me.volume[index] * m**3),
+                "mesh_area": float(me.area[index] * m**2),
+                "roof_area": float(me.roof_area[index] * m**2),
+                "facade_area": float(me.facade_area[index] * m**2),
+                "min_quality": float(me.min_quality[index]),
+                "mean_quality": float(me.mean_quality[index]),
+                "mean_dist": _plain(me.mean_dist[index] * m),
+                "max_dist": _plain(me.max_dist[index] * m),
+            })
+        return rows
 
     def block_surface_wkb(self) -> list[bytes]:
-        """Closed outward surface of every block as MultiPolygonZ WKB, world coordinates."""
+        """Closed outward surface of every block as MultiPolygonZ WKB, world coordinates.
+
+        Voxel faces are written as quads; once smoothed, as the two
+        triangles of each quad's best split (a moved quad is not planar).
+        """
         import shapely
 
-        s = self.surface
+        from .measure import block_faces
+        from .quality import best_split
+
         ids = self.blocks.block_id
         lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
         lookup[ids] = np.arange(len(ids))
-        owner = np.where(s.regions > 0, s.regions, 0)
-        quads, index = [], []
-        for side in (0, 1):  # side 0: normal already points out of the block
-            sel = np.flatnonzero(owner[:, side] > 0)
-            q = s.quads[sel] if side == 0 else s.quads[sel][:, ::-1]
-            quads.append(q)
-            index.append(lookup[owner[sel, side]])
-        quads = np.concatenate(quads)
-        index = np.concatenate(index)
+        quads, owner = block_faces(self.mesh)
+        faces, index = quads, lookup[owner]
+        if self.mesh.nodes is not self.surface.nodes:
+            faces = best_split(self.mesh.nodes, quads)[0]
+            index = np.repeat(index, 2)
         order = np.argsort(index, kind="stable")
-        rings = self.grid.to_world(s.nodes)[quads[order]]
+        rings = self.grid.to_world(self.mesh.nodes)[faces[order]]
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
         polygons = shapely.polygons(rings)
         multi = shapely.multipolygons(polygons, indices=index[order])
@@ -210,29 +252,25 @@ def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | No
     bottom of every building part (:func:`core.readers.mesh.base_points`).
     """
     from .readers.mesh import base_points, read_triangles
-    from .sampling import estimate_sample_count, sample_triangles
+    from .sampling import sample_thinned
 
     params = params or ReconstructionParams()
     report = _reporter(progress, is_cancelled)
     report(0.0, "Reading mesh")
     crs_obj = resolve_crs(None, crs, str(path))
-    h = params.voxel_size / metres_per_unit(crs_obj)
+    unit = metres_per_unit(crs_obj)
+    h = params.voxel_size / unit
     triangles = read_triangles(str(path), is_cancelled)
     warnings = list(triangles.warnings)
-    spacing = 0.1 * h
-    meshes = [triangles.corners()]
-    ground_triangles = None
-    if ground_path:
-        ground_triangles = read_triangles(str(ground_path), is_cancelled)
-        meshes.append(ground_triangles.corners())
-    n_samples = sum(estimate_sample_count(c, spacing) for c in meshes)
-    _check_sample_memory(n_samples, params)
-    report(0.05, f"Sampling triangles ({n_samples:,} points)")
-    building = sample_triangles(meshes[0], spacing)
+    ground_triangles = read_triangles(str(ground_path), is_cancelled) if ground_path else None
+    # Samples at 10 % of a voxel (paper §2), kept as one mean point per
+    # fifth of a voxel: the same voxel occupancy, bounded memory.
+    report(0.05, "Sampling triangles")
+    building = sample_thinned(triangles.corners(), 0.1 * h, 0.2 * h, is_cancelled)
     if ground_triangles is not None:
-        ground = sample_triangles(meshes[1], spacing)
+        ground = sample_thinned(ground_triangles.corners(), 0.1 * h, 0.2 * h, is_cancelled)
     else:
-        ground = base_points(triangles, h)
+        ground = base_points(triangles, h, unit=unit)
     return reconstruct_points(ground, building, crs_obj, params, airborne=False,
                               warnings=warnings, progress=progress, is_cancelled=is_cancelled)
 
@@ -324,13 +362,50 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     if len(table) == 0:
         warnings.append("No building block in the result.")
 
-    report(0.8, "Conforming surfaces")
+    report(0.7, "Conforming surfaces")
     surface = SurfaceModel.from_regions(grid, region_volume(labels, blocks))
     columns = _footprint_columns(blocks, grid)
+    del labels, blocks
     lap("surface")
+
+    box = (grid.origin, grid.origin + np.asarray(grid.shape) * h)
+    roles = NodeRoles.of(surface, *box)
+    nodes = surface.nodes
+    stats: dict = {}
+    if params.smoothing_iterations > 0:
+        report(0.75, f"Smoothing ({params.smoothing_iterations} passes)")
+        nodes, stats["smoothing"] = smooth(surface, roles, params.smoothing_iterations,
+                                           params.quality_threshold, is_cancelled)
+        lap("smooth")
+    # Ground data for the ground and the base of the blocks: the ground points,
+    # and the interpolated level where the ground was not seen (under roofs).
+    xs, ys = grid.column_centres()
+    ui, uj = np.nonzero(~level.observed)
+    ground_data = np.concatenate([ground, np.column_stack([xs[ui], ys[uj], level.z[ui, uj]])])
+    if params.project:
+        report(0.85, "Projecting nodes onto the data")
+        base = roles.on_block & roles.on_ground & ~roles.foot
+        on_buildings = roles.on_block & ~base
+        on_terrain = (roles.on_ground & ~roles.on_block) | base
+        angle = params.max_projection_angle
+        nodes, stats["projection_buildings"] = project_nodes(
+            surface, nodes, roles, on_buildings, building, h, params.quality_threshold, angle,
+            is_cancelled=is_cancelled)
+        nodes, stats["projection_ground"] = project_nodes(
+            surface, nodes, roles, on_terrain, ground_data, h, params.quality_threshold, angle,
+            is_cancelled=is_cancelled)
+        lap("project")
+    mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
+    # Distance of block nodes to the data (the nearest building or ground point).
+    data = np.concatenate([building, ground]) if len(building) else ground
+    distance = np.full(len(nodes), np.nan)
+    distance[roles.on_block] = nearest_distance(nodes[roles.on_block], data)
+    measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance)
+    lap("measure")
     report(1.0, f"{len(table)} blocks")
-    return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface,
-                          footprint_columns=columns, warnings=warnings, timings=timings)
+    return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface, mesh=mesh,
+                          measures=measures, footprint_columns=columns, warnings=warnings,
+                          timings=timings, stats=stats)
 
 
 def _blocks_above_thresholds(labels, grid, thresholds, is_cancelled):
@@ -374,6 +449,11 @@ def _footprint_columns(blocks: np.ndarray, grid: VoxelGrid) -> np.ndarray:
     return np.column_stack([key // (nx * ny), (key % (nx * ny)) // ny, key % ny])
 
 
+def _plain(value: float) -> float | None:
+    """A Python float, or None (a NULL field) for NaN."""
+    return None if not np.isfinite(value) else float(value)
+
+
 def _finite(points: np.ndarray, what: str, warnings: list[str]) -> np.ndarray:
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     ok = np.isfinite(points).all(axis=1)
@@ -381,18 +461,6 @@ def _finite(points: np.ndarray, what: str, warnings: list[str]) -> np.ndarray:
         warnings.append(f"Ignored {int((~ok).sum())} {what} points with non-finite coordinates.")
         points = points[ok]
     return points
-
-
-def _check_sample_memory(n_samples: int, params: ReconstructionParams) -> None:
-    from .grid import available_memory
-
-    needed = n_samples * 3 * 8 * 3  # points, cells and sort buffers
-    available = params.max_memory or available_memory()
-    if needed > available:
-        raise UrbanvoxError(
-            f"Sampling the mesh at 10 % of a {params.voxel_size:g} m voxel needs {n_samples:,} points "
-            f"(about {needed / 2**30:.1f} GiB) but only {available / 2**30:.1f} GiB is available: "
-            f"use a larger voxel size.")
 
 
 def _reporter(progress: Progress | None, is_cancelled: CancelCheck | None) -> Progress:

@@ -90,14 +90,14 @@ def catmull_clark_positions(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.nd
 
     Examples
     --------
-    The corner of a cube of side 2 (valence 3) moves a third of the way
-    towards its face centres and edge midpoints:
+    The corner of a cube of side 2 (valence 3) moves to (F + 2R) / 3,
+    F and R the means of its face centres and edge midpoints:
 
     >>> nodes = np.array([[x, y, z] for z in (0, 2) for y in (0, 2) for x in (0, 2)], float)
     >>> cube = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4],
     ...                  [1, 3, 7, 5], [3, 2, 6, 7], [2, 0, 4, 6]])
     >>> catmull_clark_positions(nodes, cube)[0][0]
-    array([0.55555556, 0.55555556, 0.55555556])
+    array([0.44444444, 0.44444444, 0.44444444])
     """
     n = len(nodes)
     centroid = nodes[quads].mean(axis=1)
