@@ -36,7 +36,7 @@ FACE_ADJACENCY = ndimage.generate_binary_structure(3, 1)
 
 
 def classify_voxels(grid: VoxelGrid, ground_top_k: np.ndarray, building_cells: np.ndarray,
-                    roof_seeds: np.ndarray | None = None,
+                    roof_seeds: np.ndarray | None = None, fill_to_top: bool = False,
                     is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
     """Label every voxel ground, building or air.
 
@@ -49,6 +49,12 @@ def classify_voxels(grid: VoxelGrid, ground_top_k: np.ndarray, building_cells: n
         Cells ``(i, j, k)`` holding at least one non-ground point.
     roof_seeds : ndarray of int, shape (S, 3), optional
         Extra building cells (roof holes, see :func:`roof_hole_columns`).
+    fill_to_top : bool
+        Fill the gap up to the *highest* building cell of each column instead
+        of the lowest. For airborne point clouds: a scan from above sees the
+        roof and, at most, scattered facade points; filling only up to the
+        lowest facade point would leave the wall between it and the roof open
+        to the air front.
     is_cancelled : callable, optional
 
     Returns
@@ -76,10 +82,16 @@ def classify_voxels(grid: VoxelGrid, ground_top_k: np.ndarray, building_cells: n
         above = cells[:, 2] > ground_top_k[cells[:, 0], cells[:, 1]]  # ground wins
         cells = cells[above]
         labels[cells[:, 0], cells[:, 1], cells[:, 2]] = BUILDING
-        # Gap between ground and the lowest building cell of each column.
-        lowest = np.full((nx, ny), nz, dtype=np.int64)
-        np.minimum.at(lowest, (cells[:, 0], cells[:, 1]), cells[:, 2])
-        gap = (k[None, None, :] < lowest[:, :, None]) & ~is_ground & (lowest[:, :, None] < nz)
+        # Gap between ground and the lowest (or highest) building cell of each column.
+        if fill_to_top:
+            limit = np.full((nx, ny), -1, dtype=np.int64)
+            np.maximum.at(limit, (cells[:, 0], cells[:, 1]), cells[:, 2])
+        else:
+            limit = np.full((nx, ny), nz, dtype=np.int64)
+            np.minimum.at(limit, (cells[:, 0], cells[:, 1]), cells[:, 2])
+        has_building = np.zeros((nx, ny), dtype=bool)
+        has_building[cells[:, 0], cells[:, 1]] = True
+        gap = (k[None, None, :] < limit[:, :, None]) & ~is_ground & has_building[:, :, None]
         labels[gap] = BUILDING
     del is_ground
     if is_cancelled is not None and is_cancelled():

@@ -2,8 +2,9 @@
 
 A building voxel that has a face against the air is removed when no data
 point lies within ``support`` voxel sizes (the paper uses 0.6) of that face:
-the voxel shares too little volume with the building it stands for. One
-pass, as in the paper; the caller then rebuilds blocks and surfaces.
+the voxel shares too little volume with the building it stands for. The
+voxels a pass exposes are tested by further passes; the caller then
+rebuilds blocks and surfaces.
 
 Faces against the ground are not tested: the data there is the ground, and
 airborne LiDAR has no point at the foot of a wall. For airborne point clouds
@@ -55,15 +56,20 @@ def air_faces(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return np.concatenate(cells), np.concatenate(axes), np.concatenate(signs)
 
 
-def unsupported_voxels(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
-                       support: float = 0.6, extrude_roofs: bool = False,
-                       is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
-    """Cells of the boundary voxels to eliminate.
+def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
+                          support: float = 0.6, extrude_roofs: bool = False, max_passes: int = 10,
+                          is_cancelled: Callable[[], bool] | None = None) -> int:
+    """Turn unsupported boundary voxels into air, in place, until none is left.
+
+    The paper's single pass leaves the voxels it exposes untested: a voxel
+    behind an eliminated one (typically at the foot of a wall, behind a
+    column of voxels that held only a stray point) had no air face when the
+    pass ran. Later passes test only the voxels next to those just removed.
 
     Parameters
     ----------
     labels : ndarray of uint8
-        Voxel labels (``BUILDING``/``AIR``/``GROUND``).
+        Voxel labels (``BUILDING``/``AIR``/``GROUND``), changed in place.
     grid : VoxelGrid
     points : ndarray of shape (P, 3)
         Local coordinates of the building data points.
@@ -74,7 +80,8 @@ def unsupported_voxels(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
 
     Returns
     -------
-    ndarray of int, shape (E, 3)
+    int
+        Number of voxels eliminated.
 
     Examples
     --------
@@ -84,26 +91,79 @@ def unsupported_voxels(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
     >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (1, 1, 4))
     >>> pts = np.array([[0.5, 0.5, 1.9], [0.1, 0.5, 1.5], [0.9, 0.5, 1.5],
     ...                 [0.5, 0.1, 1.5], [0.5, 0.9, 1.5]])
-    >>> unsupported_voxels(lab, g, pts)
-    array([[0, 0, 2]])
+    >>> eliminate_unsupported(lab, g, pts), lab.ravel().tolist()
+    (1, [1, 2, 3, 3])
     """
-    cells, axis, sign = air_faces(labels)
-    if len(cells) == 0:
-        return cells
-    if len(points) == 0:
-        return np.unique(cells, axis=0)
-    h = grid.voxel_size
-    centre = grid.origin + (cells + 0.5) * h
-    centre[np.arange(len(cells)), axis] += sign * 0.5 * h
-    tree = cKDTree(points)
-    supported = _supported_3d(tree, points, centre, axis, h, support)
-    if is_cancelled is not None and is_cancelled():
-        raise Cancelled()
-    if extrude_roofs:
-        wall = ~supported & (axis < 2)
-        if wall.any():
-            supported[wall] = _supported_from_above(points, centre[wall], axis[wall], h, support)
-    return np.unique(cells[~supported], axis=0)
+    test = _SupportTest(points, grid, support, extrude_roofs)
+    flat = labels.reshape(-1)
+    shape = np.asarray(labels.shape)
+    stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
+    exposed = None  # flat indices of voxels next to the last removals
+    total = 0
+    for _ in range(max_passes):
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
+        if exposed is None:
+            cells, axis, sign = air_faces(labels)
+        else:
+            cells, axis, sign = _air_faces_of(flat, exposed[flat[exposed] == BUILDING], shape, stride)
+        if len(cells) == 0:
+            break
+        gone = np.unique(cells[~test(cells, axis, sign)] @ stride)
+        if len(gone) == 0:
+            break
+        flat[gone] = AIR
+        total += len(gone)
+        ijk = np.column_stack([gone // stride[0], (gone // stride[1]) % shape[1], gone % shape[2]])
+        around = (ijk[:, None, :] + _SIX[None, :, :]).reshape(-1, 3)
+        around = around[np.all((around >= 0) & (around < shape), axis=1)]
+        exposed = np.unique(around @ stride)
+    return total
+
+
+_SIX = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
+
+
+def _air_faces_of(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray, stride: np.ndarray):
+    """:func:`air_faces` restricted to the given cells (flat indices)."""
+    ijk = np.column_stack([cells // stride[0], (cells // stride[1]) % shape[1], cells % shape[2]])
+    out_cells, out_axis, out_sign = [], [], []
+    for step in _SIX:
+        other = ijk + step
+        inside = np.all((other >= 0) & (other < shape), axis=1)
+        facing = np.zeros(len(cells), dtype=bool)
+        facing[inside] = flat[other[inside] @ stride] == AIR
+        axis = int(np.flatnonzero(step)[0])
+        out_cells.append(ijk[facing])
+        out_axis.append(np.full(int(facing.sum()), axis))
+        out_sign.append(np.full(int(facing.sum()), int(step[axis])))
+    return np.concatenate(out_cells), np.concatenate(out_axis), np.concatenate(out_sign)
+
+
+class _SupportTest:
+    """Whether data supports faces; the KD-trees are built once for all passes."""
+
+    def __init__(self, points: np.ndarray, grid: VoxelGrid, support: float, extrude_roofs: bool):
+        self.points = points
+        self.grid = grid
+        self.support = support
+        self.extrude_roofs = extrude_roofs
+        self.tree = cKDTree(points) if len(points) else None
+        self.tree_2d = cKDTree(points[:, :2]) if len(points) and extrude_roofs else None
+
+    def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:
+        if self.tree is None:
+            return np.zeros(len(cells), dtype=bool)
+        h = self.grid.voxel_size
+        centre = self.grid.origin + (cells + 0.5) * h
+        centre[np.arange(len(cells)), axis] += sign * 0.5 * h
+        supported = _supported_3d(self.tree, self.points, centre, axis, h, self.support)
+        if self.tree_2d is not None:
+            wall = ~supported & (axis < 2)
+            if wall.any():
+                supported[wall] = _supported_from_above(self.tree_2d, self.points, centre[wall],
+                                                        axis[wall], h, self.support)
+        return supported
 
 
 def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: np.ndarray,
@@ -132,10 +192,9 @@ def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: n
     return supported
 
 
-def _supported_from_above(points: np.ndarray, centre: np.ndarray, axis: np.ndarray,
+def _supported_from_above(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: np.ndarray,
                           h: float, support: float) -> np.ndarray:
     """Whether a point above each wall face lies within ``support * h`` of it horizontally."""
-    tree = cKDTree(points[:, :2])
     r_outer = np.sqrt(support**2 + 0.25) * h
     k = min(2 * _CANDIDATES, len(points))
     _, idx = tree.query(centre[:, :2], k=k, distance_upper_bound=r_outer, workers=-1)

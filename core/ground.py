@@ -97,7 +97,20 @@ def _fill_missing(grid: VoxelGrid, z: np.ndarray, observed: np.ndarray) -> np.nd
     triangulation: interior columns cannot influence a linear interpolation
     of the gaps, and leaving them out keeps Delaunay small on city-sized grids.
     """
+    # Isolated empty columns (sparse returns at small voxels) first take the
+    # mean of their observed neighbours: cheap, and it keeps the Delaunay
+    # triangulation below for the real gaps (under roofs).
+    ring = np.ones((3, 3))
+    known = np.where(observed, z, 0.0)
+    neighbours = ndimage.convolve(observed.astype(np.float64), ring, mode="constant")
+    total = ndimage.convolve(known, ring, mode="constant")
+    scattered = ~observed & (neighbours == 8)  # symmetric: exact on a plane
+    z = z.copy()
+    z[scattered] = total[scattered] / neighbours[scattered]
+    observed = observed | scattered
     missing = ~observed
+    if not missing.any():
+        return z
     rim = observed & ndimage.binary_dilation(missing, structure=np.ones((3, 3), bool))
     xs, ys = grid.column_centres()
     ri, rj = np.nonzero(rim)

@@ -30,10 +30,6 @@ from .errors import Cancelled
 #: Corners of a 2 x 2 x 2 cube, bit b of a cube code is corner CORNERS[b].
 CORNERS = np.array(list(itertools.product((0, 1), repeat=3)), dtype=np.int64)
 _OPPOSITE = [(a, b) for a in range(8) for b in range(a + 1, 8) if np.all(CORNERS[a] + CORNERS[b] == 1)]
-#: Cube codes where the set is two opposite corners only (vertex-critical).
-_PAIR_CODES = np.array([(1 << a) | (1 << b) for a, b in _OPPOSITE], dtype=np.uint8)
-#: Cube codes where the complement is two opposite corners only.
-_HOLE_CODES = np.array([0xFF ^ c for c in _PAIR_CODES], dtype=np.uint8)
 
 
 def repair_height_field(top_k: np.ndarray, max_iterations: int = 100) -> np.ndarray:
@@ -77,12 +73,14 @@ def repair_height_field(top_k: np.ndarray, max_iterations: int = 100) -> np.ndar
     raise RuntimeError("height-field repair did not converge")  # pragma: no cover
 
 
-def make_well_composed(labels: np.ndarray, max_iterations: int = 200,
+def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
                        is_cancelled: Callable[[], bool] | None = None) -> int:
     """Turn air voxels into building until buildings and solids are well-composed.
 
-    Air pockets cut off by the filling become building too, so the air stays
-    one volume.
+    Every 2 x 2 x 2 cube of the grid is classified at once through its label
+    pattern (3^8 patterns, :data:`FIX_TABLE`); afterwards only the cubes
+    around a changed voxel are looked at again. Air pockets cut off by the
+    filling become building too, so the air stays one volume.
 
     Works in place on ``labels`` (``GROUND``/``BUILDING``/``AIR``); the ground
     must already be a repaired height field.
@@ -101,88 +99,113 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 200,
     >>> make_well_composed(lab)
     1
     """
+    shape = np.asarray(labels.shape)
+    if np.any(shape < 2):
+        return 0
+    flat = labels.reshape(-1)  # a view: writes go to labels
+    stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
+    corner_offset = CORNERS @ stride
+    origins = _all_critical_cubes(labels)
     added = 0
-    box = tuple(slice(0, n) for n in labels.shape)
+    filled_since_enclosing = False
     for _ in range(max_iterations):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        sub = labels[box]
-        targets = _critical_air_cells(sub)
+        if len(origins):
+            code = np.zeros(len(origins), dtype=np.int64)
+            for bit in range(8):
+                code += (flat[origins + corner_offset[bit]].astype(np.int64) - 1) * 3**bit
+            fix = FIX_TABLE[code]
+            wanted = fix >= 0
+            targets = np.unique(origins[wanted] + corner_offset[fix[wanted]])
+            targets = targets[flat[targets] == AIR]
+        else:
+            targets = np.zeros(0, dtype=np.int64)
         if len(targets) == 0:
             # Filling may have cut pockets off the air: they are enclosed, so
             # building (paper §2), and that may create new critical patterns.
-            enclosed = enclose_air(labels)
-            if enclosed == 0:
+            if not filled_since_enclosing:
                 return added
-            added += enclosed
-            box = tuple(slice(0, n) for n in labels.shape)
-            continue
-        targets += np.array([s.start for s in box])
-        targets = np.unique(targets, axis=0)
-        labels[targets[:, 0], targets[:, 1], targets[:, 2]] = BUILDING
+            before = flat == AIR
+            filled_since_enclosing = False
+            if enclose_air(labels) == 0:
+                return added
+            targets = np.flatnonzero(before & (flat != AIR))
+        else:
+            flat[targets] = BUILDING
+            filled_since_enclosing = True
         added += len(targets)
-        # Only the neighbourhood of what changed can hold new critical patterns.
-        lo = np.maximum(targets.min(axis=0) - 2, 0)
-        hi = np.minimum(targets.max(axis=0) + 3, labels.shape)
-        box = tuple(slice(int(a), int(b)) for a, b in zip(lo, hi))
+        origins = _cubes_around(targets, shape, stride)
     raise RuntimeError("well-composed repair did not converge")  # pragma: no cover
 
 
-def _critical_air_cells(labels: np.ndarray) -> np.ndarray:
-    """Air cells whose conversion to building resolves each critical pattern."""
-    air = labels == AIR
-    building = labels == BUILDING
-    out = []
-    for field in (building, ~air):  # B, then S = building + ground
-        out.extend(_edge_fixes(field, air))
-        out.extend(_vertex_fixes(field, air))
-    if not out:
-        return np.zeros((0, 3), dtype=np.int64)
-    return np.concatenate(out)
-
-
-def _edge_fixes(field: np.ndarray, air: np.ndarray) -> list[np.ndarray]:
-    """For each edge-critical 2 x 2 window of ``field``, one air cell to fill."""
-    fixes = []
-    for p, q in ((0, 1), (0, 2), (1, 2)):
-        def cell(dp: int, dq: int, arr: np.ndarray) -> np.ndarray:
-            sl = [slice(None)] * 3
-            sl[p] = slice(dp, arr.shape[p] - 1 + dp)
-            sl[q] = slice(dq, arr.shape[q] - 1 + dq)
-            return arr[tuple(sl)]
-        a, b, c, d = (cell(0, 0, field), cell(1, 0, field), cell(1, 1, field), cell(0, 1, field))
-        # Diagonal a-c in the set, b and d out: fill b or d; and the mirror case.
-        for inside, (o1, o2) in (((a & c & ~b & ~d), ((1, 0), (0, 1))),
-                                 ((b & d & ~a & ~c), ((0, 0), (1, 1)))):
-            idx = np.argwhere(inside)
-            if len(idx) == 0:
-                continue
-            first = idx.copy()
-            first[:, p] += o1[0]
-            first[:, q] += o1[1]
-            second = idx.copy()
-            second[:, p] += o2[0]
-            second[:, q] += o2[1]
-            first_is_air = air[first[:, 0], first[:, 1], first[:, 2]]
-            fixes.append(np.where(first_is_air[:, None], first, second))
-    return fixes
-
-
-def _vertex_fixes(field: np.ndarray, air: np.ndarray) -> list[np.ndarray]:
-    """For each vertex-critical 2 x 2 x 2 cube of ``field``, one air cell to fill."""
-    nx, ny, nz = field.shape
-    code = np.zeros((nx - 1, ny - 1, nz - 1), dtype=np.uint8)
+def _all_critical_cubes(labels: np.ndarray) -> np.ndarray:
+    """Flat index (of the lowest corner) of every critical cube of the grid."""
+    nx, ny, nz = labels.shape
+    code = np.zeros((nx - 1, ny - 1, nz - 1), dtype=np.int16)
     for bit, (di, dj, dk) in enumerate(CORNERS):
-        code |= field[di:nx - 1 + di, dj:ny - 1 + dj, dk:nz - 1 + dk].astype(np.uint8) << bit
-    fixes = []
-    critical = np.isin(code, _PAIR_CODES) | np.isin(code, _HOLE_CODES)
-    idx = np.argwhere(critical)
-    if len(idx) == 0:
-        return fixes
-    # Candidate corners: the cube's air corners, in a fixed order; take the first.
-    corner_cells = idx[:, None, :] + CORNERS[None, :, :]
-    corner_air = air[corner_cells[..., 0], corner_cells[..., 1], corner_cells[..., 2]]
-    has_air = corner_air.any(axis=1)
-    choice = np.argmax(corner_air, axis=1)
-    fixes.append(corner_cells[np.arange(len(idx)), choice][has_air])
-    return fixes
+        digit = labels[di:nx - 1 + di, dj:ny - 1 + dj, dk:nz - 1 + dk].astype(np.int16) - 1
+        code += digit * np.int16(3**bit)
+    i, j, k = np.nonzero(FIX_TABLE[code] >= 0)
+    return (i.astype(np.int64) * ny + j) * nz + k
+
+
+def _cubes_around(cells: np.ndarray, shape: np.ndarray, stride: np.ndarray) -> np.ndarray:
+    """Flat origins of the (up to 8) cubes that contain each cell."""
+    ijk = np.column_stack([cells // stride[0], (cells // stride[1]) % shape[1], cells % shape[2]])
+    origins = (ijk[:, None, :] - CORNERS[None, :, :]).reshape(-1, 3)
+    inside = np.all((origins >= 0) & (origins <= shape - 2), axis=1)
+    return np.unique(origins[inside] @ stride)
+
+
+# Cube faces as 2 x 2 windows, corners in cyclic order (bit indices of CORNERS).
+def _cube_faces() -> list[tuple[int, int, int, int]]:
+    index = {tuple(c): b for b, c in enumerate(CORNERS)}
+    faces = []
+    for axis in range(3):
+        u, v = [a for a in range(3) if a != axis]
+        for side in (0, 1):
+            ring = []
+            for du, dv in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                c = [0, 0, 0]
+                c[axis], c[u], c[v] = side, du, dv
+                ring.append(index[tuple(c)])
+            faces.append(tuple(ring))
+    return faces
+
+
+def _fix_for(member: list[bool], air: list[bool]) -> int:
+    """Air corner to fill for a critical pattern of one set in a cube, or -1."""
+    def first_air(candidates) -> int:
+        return next((c for c in candidates if air[c]), -1)
+    for a, b, c, d in _cube_faces():
+        if member[a] and member[c] and not member[b] and not member[d]:
+            return first_air((b, d))
+        if member[b] and member[d] and not member[a] and not member[c]:
+            return first_air((a, c))
+    inside = [i for i in range(8) if member[i]]
+    outside = [i for i in range(8) if not member[i]]
+    for a, b in _OPPOSITE:
+        if inside == [a, b]:
+            return first_air(outside)
+        if outside == [a, b]:
+            return first_air(outside)
+    return -1
+
+
+def _fix_table() -> np.ndarray:
+    """For each of the 3^8 cube patterns (digit: 0 ground, 1 building, 2 air),
+    the corner to turn into building, or -1 when the cube is not critical."""
+    table = np.full(3**8, -1, dtype=np.int64)
+    for code in range(3**8):
+        digits = [(code // 3**b) % 3 for b in range(8)]
+        air = [d == 2 for d in digits]
+        fix = _fix_for([d == 1 for d in digits], air)          # the buildings
+        if fix < 0:
+            fix = _fix_for([d != 2 for d in digits], air)      # the solids
+        table[code] = fix
+    return table
+
+
+#: Corner to fill for every cube pattern (-1: the cube is well-composed).
+FIX_TABLE = _fix_table()

@@ -33,9 +33,9 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .blocks import BlockTable, block_attributes, drop_blocks, label_blocks, small_blocks
-from .classify import AIR, classify_voxels, roof_hole_columns
+from .classify import classify_voxels, roof_hole_columns
 from .crs import metres_per_unit, resolve_crs
-from .eliminate import unsupported_voxels
+from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
 from .grid import VoxelGrid, check_memory
 from .ground import column_ground_level
@@ -289,8 +289,10 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         Projected CRS of the coordinates.
     params : ReconstructionParams
     airborne : bool
-        Point cloud seen from above: roof holes are filled and walls are
-        supported by the roof edge above them (see :mod:`core.eliminate`).
+        Point cloud seen from above: every column is solid from the ground up
+        to its highest building point, roof holes are filled, and walls are
+        supported by the roof edge above them (:mod:`core.classify`,
+        :mod:`core.eliminate`).
     """
     report = _reporter(progress, is_cancelled)
     warnings = list(warnings or [])
@@ -339,7 +341,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         if len(seeds):
             warnings.append(f"Filled {len(seeds)} roof-hole columns "
                             f"({len(seeds) * (h * m) ** 2:.0f} m²) with no return under them.")
-    labels = classify_voxels(grid, top_k, building_cells, seeds, is_cancelled)
+    labels = classify_voxels(grid, top_k, building_cells, seeds, fill_to_top=airborne,
+                             is_cancelled=is_cancelled)
     make_well_composed(labels, is_cancelled=is_cancelled)
     lap("classify")
 
@@ -349,9 +352,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     lap("blocks")
 
     report(0.6, "Eliminating unsupported boundary voxels")
-    removed = unsupported_voxels(labels, grid, building, params.support, extrude_roofs=airborne,
-                                 is_cancelled=is_cancelled)
-    labels[removed[:, 0], removed[:, 1], removed[:, 2]] = AIR
+    eliminate_unsupported(labels, grid, building, params.support, extrude_roofs=airborne,
+                          is_cancelled=is_cancelled)
     make_well_composed(labels, is_cancelled=is_cancelled)
     blocks, table, dropped_after = _blocks_above_thresholds(labels, grid, thresholds, is_cancelled)
     lap("eliminate")

@@ -115,22 +115,25 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
         Nodes whose move was kept.
     """
     moving = np.any(new != old, axis=1)
-    q_old = quad_quality(old, quads)
-    n_old = quad_normals(old, quads)
-    floor = np.minimum(q_old, threshold)
+    faces = np.flatnonzero(moving[quads].any(axis=1))
+    sub = quads[faces]
+    floor = np.minimum(quad_quality(old, sub), threshold)
+    n_old = quad_normals(old, sub)
     positions = new.copy()
+    check = np.arange(len(sub))  # faces whose nodes changed since they were checked
     for _ in range(max_rounds):
-        touched = moving[quads].any(axis=1)
-        if not touched.any():
+        if len(check) == 0:
             break
-        sub = quads[touched]
-        q = quad_quality(positions, sub)
-        turned = np.einsum("ij,ij->i", quad_normals(positions, sub), n_old[touched]) <= 0
-        bad = (q < floor[touched] - 1e-12) | turned
-        if not bad.any():
+        q = quad_quality(positions, sub[check])
+        turned = np.einsum("ij,ij->i", quad_normals(positions, sub[check]), n_old[check]) <= 0
+        bad = check[(q < floor[check] - 1e-12) | turned]
+        if len(bad) == 0:
             break
         undo = np.unique(sub[bad])
         undo = undo[moving[undo]]
         positions[undo] = old[undo]
         moving[undo] = False
+        reverted = np.zeros(len(old), dtype=bool)
+        reverted[undo] = True
+        check = np.flatnonzero(reverted[sub].any(axis=1))
     return positions, moving

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
+from scipy import sparse
 
 from .errors import Cancelled
 from .quality import accept_moves
@@ -78,15 +79,18 @@ def _nodes_of(quads: np.ndarray, n: int) -> np.ndarray:
     return mask
 
 
-def catmull_clark_positions(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Vertex-only Catmull-Clark position of every node of a quad surface.
+def catmull_clark_operator(quads: np.ndarray, n: int) -> tuple[sparse.csr_matrix, np.ndarray]:
+    """The vertex-only Catmull-Clark step as one sparse ``n x n`` matrix.
+
+    The topology never changes, so the step is linear in the node positions
+    and the same every pass: ``new = W @ nodes``.
 
     Returns
     -------
-    positions : ndarray of shape (N, 3)
-        New positions (old ones for nodes the faces do not touch).
+    W : scipy.sparse.csr_matrix
+        Rows of nodes the quads do not touch are zero.
     touched : ndarray of bool
-        Nodes the faces touch.
+        Nodes the quads touch.
 
     Examples
     --------
@@ -96,32 +100,31 @@ def catmull_clark_positions(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.nd
     >>> nodes = np.array([[x, y, z] for z in (0, 2) for y in (0, 2) for x in (0, 2)], float)
     >>> cube = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4],
     ...                  [1, 3, 7, 5], [3, 2, 6, 7], [2, 0, 4, 6]])
-    >>> catmull_clark_positions(nodes, cube)[0][0]
+    >>> W, _ = catmull_clark_operator(cube, 8)
+    >>> (W @ nodes)[0]
     array([0.44444444, 0.44444444, 0.44444444])
     """
-    n = len(nodes)
-    centroid = nodes[quads].mean(axis=1)
-    corners = quads.ravel()
-    face_sum = _scatter(corners, np.repeat(centroid, 4, axis=0), n)
-    face_count = np.bincount(corners, minlength=n)
+    m = len(quads)
+    corner_face = np.repeat(np.arange(m), 4)
+    incidence = sparse.csr_matrix((np.ones(4 * m), (quads.ravel(), corner_face)), shape=(n, m))
+    face_count = np.asarray(incidence.sum(axis=1)).ravel()
     tail = quads.ravel()
     head = np.roll(quads, -1, axis=1).ravel()
-    edges = np.unique(np.column_stack([np.minimum(tail, head), np.maximum(tail, head)]), axis=0)
-    midpoint = 0.5 * (nodes[edges[:, 0]] + nodes[edges[:, 1]])
-    ends = edges.ravel()
-    edge_sum = _scatter(ends, np.repeat(midpoint, 2, axis=0), n)
-    valence = np.bincount(ends, minlength=n)
+    key = np.unique(np.minimum(tail, head).astype(np.int64) * n + np.maximum(tail, head))
+    edges = np.column_stack([key // n, key % n])
+    e = len(edges)
+    edge_incidence = sparse.csr_matrix((np.ones(2 * e), (edges.ravel(), np.repeat(np.arange(e), 2))),
+                                       shape=(n, e))
+    valence = np.asarray(edge_incidence.sum(axis=1)).ravel()
     touched = (face_count > 0) & (valence > 0)
-    positions = nodes.copy()
-    v = valence[touched, None].astype(np.float64)
-    f = face_sum[touched] / face_count[touched, None]
-    r = edge_sum[touched] / v
-    positions[touched] = (f + 2 * r + (v - 3) * nodes[touched]) / v
-    return positions, touched
-
-
-def _scatter(index: np.ndarray, values: np.ndarray, n: int) -> np.ndarray:
-    return np.column_stack([np.bincount(index, weights=values[:, c], minlength=n) for c in range(3)])
+    inv_faces = np.divide(1.0, face_count, out=np.zeros(n), where=face_count > 0)
+    inv_valence = np.divide(1.0, valence, out=np.zeros(n), where=valence > 0)
+    face_mean = sparse.diags(inv_faces) @ incidence @ (incidence.T * 0.25)        # F
+    edge_mean = sparse.diags(inv_valence) @ edge_incidence @ (edge_incidence.T * 0.5)  # R
+    own = np.where(touched, (valence - 3) * inv_valence, 0.0)
+    W = (sparse.diags(inv_valence) @ face_mean + sparse.diags(2 * inv_valence) @ edge_mean
+         + sparse.diags(own))
+    return W.tocsr(), touched
 
 
 def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: float = 0.2,
@@ -144,17 +147,19 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
         ``moved`` (node moves kept) and ``refused`` (moves undone) per pass.
     """
     a, b = model.regions[:, 0], model.regions[:, 1]
-    block_quads = model.quads[(a > 0) | (b > 0)]
-    ground_quads = model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)]
+    n = len(model.nodes)
+    from_blocks, _ = catmull_clark_operator(model.quads[(a > 0) | (b > 0)], n)
+    from_ground, _ = catmull_clark_operator(model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)], n)
+    # Each node follows one surface: its block's, else the ground's.
+    W = sparse.diags(roles.on_block.astype(float)) @ from_blocks \
+        + sparse.diags((~roles.on_block).astype(float)) @ from_ground
+    keep = roles.fixed_axes | ~roles.movable[:, None]
     nodes = model.nodes.copy()
     stats = {"moved": [], "refused": []}
     for _ in range(passes):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        from_blocks, _ = catmull_clark_positions(nodes, block_quads)
-        from_ground, _ = catmull_clark_positions(nodes, ground_quads)
-        proposal = np.where(roles.on_block[:, None], from_blocks, from_ground)
-        proposal = np.where(roles.fixed_axes | ~roles.movable[:, None], nodes, proposal)
+        proposal = np.where(keep, nodes, W @ nodes)
         wanted = np.any(proposal != nodes, axis=1)
         nodes, kept = accept_moves(nodes, proposal, model.quads, threshold)
         stats["moved"].append(int(kept.sum()))

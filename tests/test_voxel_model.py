@@ -5,7 +5,7 @@ from scipy import ndimage
 
 from core.blocks import block_attributes, label_blocks, small_blocks
 from core.classify import AIR, BUILDING, GROUND, classify_voxels, roof_hole_columns
-from core.eliminate import unsupported_voxels
+from core.eliminate import eliminate_unsupported
 from core.errors import UrbanvoxError
 from core.grid import VoxelGrid, check_memory
 from core.ground import column_ground_level
@@ -164,35 +164,61 @@ def test_block_attributes_and_thresholds():
 
 
 def test_elimination_keeps_voxels_sharing_enough_volume():
-    # A wall of building voxels x in [2, 5); data: the true facade at x = 4.5,
-    # so the voxel x in [4, 5) is half inside: face at 5 is 0.5 from the data: kept.
-    # Another facade at x = 7.3 in voxel [7, 8): face at 8 is 0.7 away: eliminated.
+    # Two walls of building voxels; data: the true facades. At x = 4.5 the voxel
+    # x in [4, 5) is half inside: its face at 5 is 0.5 from the data, kept. At
+    # x = 7.3 the voxel [7, 8) is 30 % inside: its face at 7 is 0.3 from... the
+    # data lies at 7.3 on the low side: face 7 is 0.3 away, kept; the high side
+    # voxels [9, 10) have their face at 10 one voxel from the facade at 9.0: gone.
     g = grid_of((12, 3, 6))
     labels = np.full(g.shape, AIR, np.uint8)
     labels[:, :, 0] = GROUND
     labels[2:5, :, 1:4] = BUILDING
     labels[7:10, :, 1:4] = BUILDING
     ys, zs = np.meshgrid(np.arange(0.05, 3, 0.1), np.arange(1.05, 4, 0.1), indexing="ij")
+
     def wall(x):
         return np.column_stack([np.full(ys.size, x), ys.ravel(), zs.ravel()])
-    xs, ys2 = np.meshgrid(np.arange(0.05, 12, 0.1), np.arange(0.05, 3, 0.1), indexing="ij")
-    roofs = np.column_stack([xs.ravel(), ys2.ravel(), np.full(xs.size, 3.9)])
-    roofs = roofs[((roofs[:, 0] > 2) & (roofs[:, 0] < 4.5)) | ((roofs[:, 0] > 7) & (roofs[:, 0] < 7.3))]
-    pts = np.concatenate([wall(2.0), wall(4.5), wall(7.0), wall(7.3), roofs])
-    removed = unsupported_voxels(labels, g, pts)
-    assert set(map(tuple, removed[:, :2])) == {(9, 0), (9, 1), (9, 2), (8, 0), (8, 1), (8, 2)} or \
-        set(removed[:, 0]) == {8, 9}
-    assert 4 not in set(removed[:, 0])
+    xs, yr = np.meshgrid(np.arange(0.05, 12, 0.1), np.arange(0.05, 3, 0.1), indexing="ij")
+    roofs = np.column_stack([xs.ravel(), yr.ravel(), np.full(xs.size, 3.9)])
+    roofs = roofs[((roofs[:, 0] > 2) & (roofs[:, 0] < 4.5)) | ((roofs[:, 0] > 7.3) & (roofs[:, 0] < 9.0))]
+    pts = np.concatenate([wall(2.0), wall(4.5), wall(7.3), wall(9.0), roofs])
+    removed = eliminate_unsupported(labels, g, pts)
+    assert removed == 3 * 3
+    assert (labels[9, :, 1:4] == AIR).all()
+    assert (labels[2:5, :, 1:4] == BUILDING).all() and (labels[7:9, :, 1:4] == BUILDING).all()
+
+
+def test_elimination_tests_the_voxels_it_exposes():
+    # A column of voxels in front of a wall holds no data: the first pass
+    # removes the ones facing the air, the next the one it exposed at the foot.
+    g = grid_of((8, 1, 6))
+    labels = np.full(g.shape, AIR, np.uint8)
+    labels[:, :, 0] = GROUND
+    labels[5, :, 1] = GROUND            # the ground steps up in front of the wall
+    labels[2:5, :, 1:5] = BUILDING      # the building
+    labels[5, :, 2:5] = BUILDING        # stray column of voxels in front of it
+    zs = np.arange(1.05, 5, 0.1)
+    wall = np.column_stack([np.full(zs.size, 5.0), np.full(zs.size, 0.5), zs])
+    xs = np.arange(2.05, 5, 0.1)
+    roof = np.column_stack([xs, np.full(xs.size, 0.5), np.full(xs.size, 4.95)])
+    other = np.column_stack([np.full(zs.size, 2.0), np.full(zs.size, 0.5), zs])
+    eliminate_unsupported(labels, g, np.concatenate([wall - [0.001, 0, 0], roof, other]))
+    assert (labels[5, 0, 2:5] == AIR).all()
+    assert (labels[2:5, 0, 1:5] == BUILDING).all()
 
 
 def test_airborne_walls_are_supported_by_the_roof_edge_above():
-    g = grid_of((8, 3, 8))
-    labels = np.full(g.shape, AIR, np.uint8)
-    labels[:, :, 0] = GROUND
-    labels[2:6, :, 1:6] = BUILDING
+    def model():
+        g = grid_of((8, 3, 8))
+        labels = np.full(g.shape, AIR, np.uint8)
+        labels[:, :, 0] = GROUND
+        labels[2:6, :, 1:6] = BUILDING
+        return g, labels
     xs, ys = np.meshgrid(np.arange(2.05, 6, 0.1), np.arange(0.05, 3, 0.1), indexing="ij")
     roof = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 5.8)])
-    assert len(unsupported_voxels(labels, g, roof, extrude_roofs=True)) == 0
+    g, labels = model()
+    assert eliminate_unsupported(labels, g, roof, extrude_roofs=True) == 0
     # Without the extrusion rule every wall voxel below the roof voxel would go.
-    removed = unsupported_voxels(labels, g, roof, extrude_roofs=False)
-    assert set(removed[:, 0]) == {2, 5} and removed[:, 2].max() < 5
+    g, labels = model()
+    assert eliminate_unsupported(labels, g, roof, extrude_roofs=False) > 0
+    assert (labels[2, :, 1:5] == AIR).all()
