@@ -168,7 +168,7 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
     """Sample triangles, keeping one point (the mean) per occupied ``cell`` cube.
 
     The cubes lie on the world lattice of multiples of ``cell``; when ``cell``
-    divides the voxel size (the pipeline uses a fifth of it) every cube sits
+    divides the voxel size (the pipeline uses a third of it) every cube sits
     inside one voxel, so the voxel occupancy is exactly that of the full
     sample, at a fraction of its memory: the full sample of a city mesh at
     10 % of a voxel is tens of millions of points, held here one chunk at a time.
