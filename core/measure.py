@@ -70,14 +70,15 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     >>> m.volume, m.roof_area, m.facade_area
     (array([8.]), array([4.]), array([16.]))
     """
-    quads, owner = block_faces(model)
-    triangles, quality = best_split(nodes, quads)
+    moved = SurfaceModel(nodes=nodes, quads=model.quads, regions=model.regions)
+    quads, owner = block_faces(moved)
+    quality = best_split(nodes, quads)[1]
+    triangles, tri_owner = block_faces(moved.triangulated())
     p = nodes[triangles]
     cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     tri_area = 0.5 * np.linalg.norm(cross, axis=1)
     # Signed volume of the tetrahedra to a per-block reference point (any
     # point works for a closed surface; a nearby one keeps round-off small).
-    tri_owner = np.repeat(owner, 2)
     count = np.bincount(tri_owner, minlength=n_blocks + 1)
     reference = np.column_stack([np.bincount(tri_owner, weights=p[:, 0, c], minlength=n_blocks + 1)
                                  for c in range(3)]) / np.maximum(count, 1)[:, None]

@@ -34,6 +34,8 @@ import numpy as np
 
 from .blocks import BlockTable, block_attributes, drop_blocks, label_blocks, small_blocks
 from .classify import classify_voxels, roof_hole_columns
+from .clusters import merge as merge_clusters
+from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
@@ -177,22 +179,57 @@ class Reconstruction:
         import shapely
 
         from .measure import block_faces
-        from .quality import best_split
 
         ids = self.blocks.block_id
         lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
         lookup[ids] = np.arange(len(ids))
-        quads, owner = block_faces(self.mesh)
-        faces, index = quads, lookup[owner]
-        if self.mesh.nodes is not self.surface.nodes:
-            faces = best_split(self.mesh.nodes, quads)[0]
-            index = np.repeat(index, 2)
+        model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh.triangulated()
+        faces, owner = block_faces(model)
+        index = lookup[owner]
         order = np.argsort(index, kind="stable")
         rings = self.grid.to_world(self.mesh.nodes)[faces[order]]
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
         polygons = shapely.polygons(rings)
         multi = shapely.multipolygons(polygons, indices=index[order])
         return list(shapely.to_wkb(multi, output_dimension=3))
+
+    def ground_surface_wkb(self, tile: int = 64) -> list[bytes]:
+        """The terrain (ground/air faces) as MultiPolygonZ WKB, one per tile of
+        ``tile`` x ``tile`` columns so that no feature is city-sized."""
+        import shapely
+
+        from .surface import AIR_REGION, GROUND_REGION
+
+        model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh.triangulated()
+        faces = model.interface(GROUND_REGION, AIR_REGION)
+        if len(faces) == 0:
+            return []
+        nodes = self.grid.to_world(model.nodes)
+        centre = model.nodes[faces].mean(axis=1)
+        key = np.floor((centre[:, :2] - self.grid.origin[:2]) / (tile * self.grid.voxel_size)).astype(np.int64)
+        _, index = np.unique(key, axis=0, return_inverse=True)
+        index = index.ravel()
+        order = np.argsort(index, kind="stable")
+        rings = nodes[faces[order]]
+        rings = np.concatenate([rings, rings[:, :1]], axis=1)
+        multi = shapely.multipolygons(shapely.polygons(rings), indices=index[order])
+        return list(shapely.to_wkb(multi, output_dimension=3))
+
+    def write_mesh(self, path) -> "Path":
+        """Write the final conforming mesh; the suffix picks the format (:mod:`core.export`)."""
+        from .export import write_mesh
+
+        return write_mesh(path, self.mesh, self.grid.offset)
+
+    def write_preview(self, path, before_after: bool = True) -> "Path":
+        """PNG picture, blocks coloured by height; voxels beside the final mesh."""
+        from .preview import write_preview
+
+        heights = {row["block_id"]: row["height"] for row in self.block_rows()}
+        panels = [(self.mesh, "smoothed and projected (§4)")]
+        if before_after:
+            panels.insert(0, (self.surface, "voxel model (§3)"))
+        return write_preview(path, panels, heights)
 
     def footprint_wkb(self) -> list[bytes]:
         """Footprint of every block (union of its columns) as Polygon WKB."""
@@ -283,7 +320,8 @@ def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | No
 def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: ReconstructionParams,
                        *, airborne: bool, warnings: list[str] | None = None,
                        progress: Progress | None = None,
-                       is_cancelled: CancelCheck | None = None) -> Reconstruction:
+                       is_cancelled: CancelCheck | None = None,
+                       split: bool = True) -> Reconstruction:
     """The paper's §2-3 on ground and building points in world coordinates.
 
     Parameters
@@ -298,6 +336,9 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         to its highest building point, roof holes are filled, and walls are
         supported by the roof edge above them (:mod:`core.classify`,
         :mod:`core.eliminate`).
+    split : bool
+        Without an extent, reconstruct clusters of data farther apart than
+        50 m (or 20 voxels) on grids of their own (:mod:`core.clusters`).
     """
     report = _reporter(progress, is_cancelled)
     warnings = list(warnings or [])
@@ -322,6 +363,11 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     if len(ground) == 0:
         raise UrbanvoxError("No ground point: check the ground classes (GROUND_CLASSES) "
                             "or give a ground mesh.")
+    if split and params.extent is None and len(building):
+        cluster = split_clusters(np.concatenate([ground, building]), max(50.0 / m, 20 * h))
+        if cluster.max() > 0:
+            return _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warnings,
+                                         progress, is_cancelled)
 
     # A global lattice (multiples of the voxel size in world coordinates) with
     # one ground layer under the lowest point and the paper's empty top row.
@@ -420,6 +466,31 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface, mesh=mesh,
                           measures=measures, footprint_columns=columns, warnings=warnings,
                           timings=timings, stats=stats)
+
+
+def _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warnings, progress,
+                          is_cancelled) -> Reconstruction:
+    """Reconstruct every cluster that has buildings on its own grid; merge."""
+    ground_cluster, building_cluster = cluster[:len(ground)], cluster[len(ground):]
+    wanted = np.unique(building_cluster)
+    parts = []
+    for n, c in enumerate(wanted):
+        def part_progress(fraction: float, message: str, n: int = n) -> None:
+            if progress is not None:
+                progress((n + fraction) / len(wanted), f"Cluster {n + 1}/{len(wanted)}: {message}")
+        own_ground = ground[ground_cluster == c]
+        if len(own_ground) == 0:
+            warnings.append(f"Skipped a cluster of {int((building_cluster == c).sum())} building points "
+                            "with no ground point near it.")
+            continue
+        parts.append(reconstruct_points(own_ground, building[building_cluster == c], crs, params,
+                                        airborne=airborne, progress=part_progress,
+                                        is_cancelled=is_cancelled, split=False))
+    if not parts:
+        raise UrbanvoxError("No cluster of building points has ground points near it.")
+    result = merge_clusters(parts)
+    result.warnings[:0] = warnings
+    return result
 
 
 def _blocks_above_thresholds(labels, grid, thresholds, is_cancelled):

@@ -51,7 +51,8 @@ class SurfaceModel:
     nodes : ndarray of float64, shape (N, 3)
         Local node coordinates.
     quads : ndarray of int64, shape (M, 4)
-        Node indices, normal from ``regions[:, 0]`` into ``regions[:, 1]``.
+        Node indices, normal from ``regions[:, 0]`` into ``regions[:, 1]``
+        (shape (M, 3) once :meth:`triangulated`).
     regions : ndarray of int32, shape (M, 2)
         The regions behind and in front of each quad.
     """
@@ -101,6 +102,21 @@ class SurfaceModel:
         return cls(nodes=grid.node_xyz(ijk),
                    quads=inverse.reshape(-1, 4).astype(np.int64),
                    regions=np.concatenate(pairs).astype(np.int32))
+
+    def triangulated(self) -> "SurfaceModel":
+        """The same model with every quad split into its two best triangles.
+
+        The split is chosen once per quad, on the model's own orientation, so
+        the two regions of a face share the same two triangles: after the
+        nodes have moved a quad is not planar, and splitting each region's
+        copy separately could pick different diagonals and open a gap.
+        """
+        from .quality import best_split
+
+        if self.quads.shape[1] == 3:
+            return self
+        triangles, _ = best_split(self.nodes, self.quads)
+        return SurfaceModel(nodes=self.nodes, quads=triangles, regions=np.repeat(self.regions, 2, axis=0))
 
     def region_ids(self) -> np.ndarray:
         """Every region that has a face (blocks, ground, air, outside)."""

@@ -1,0 +1,93 @@
+"""Scattered data: one voxel grid per cluster of buildings, merged after.
+
+A city model often holds buildings kilometres apart (a CityGML export of
+selected buildings, LoD2 tiles with gaps). One grid around all of them would
+be mostly empty and too large for memory, so data whose occupied area falls
+into groups separated by more than ``gap`` are reconstructed group by group,
+on the same global lattice, and the results are merged: blocks are
+renumbered, and the ground and air of every group keep the region ids
+``GROUND_REGION`` and ``AIR_REGION`` (each group's ground and air are closed
+volumes of their own, disjoint from the others').
+
+A point cloud with ground points everywhere forms a single cluster.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from .blocks import BlockTable
+from .grid import VoxelGrid
+from .measure import BlockMeasures
+from .surface import SurfaceModel
+
+
+def split_clusters(points: np.ndarray, gap: float) -> np.ndarray:
+    """Cluster index of every point: groups of ``gap``-sized cells touching (8-neighbours).
+
+    Examples
+    --------
+    >>> pts = np.array([[0, 0, 0], [10, 0, 0], [500, 0, 0]], float)
+    >>> split_clusters(pts, 50.0).tolist()
+    [0, 0, 1]
+    """
+    cell = np.floor(points[:, :2] / gap).astype(np.int64)
+    cell -= cell.min(axis=0)
+    shape = cell.max(axis=0) + 1
+    occupied = np.zeros(shape, dtype=bool)
+    occupied[cell[:, 0], cell[:, 1]] = True
+    labels, _ = ndimage.label(occupied, structure=np.ones((3, 3), bool))
+    return labels[cell[:, 0], cell[:, 1]] - 1
+
+
+def merge(parts: list) -> "Reconstruction":  # noqa: F821 - core.pipeline.Reconstruction
+    """One reconstruction from the reconstructions of separate clusters."""
+    from .pipeline import Reconstruction
+
+    h = parts[0].grid.voxel_size
+    offset = np.min([p.grid.offset for p in parts], axis=0)
+    nodes, quads, regions, moved, columns = [], [], [], [], []
+    tables, measures, warnings = [], [], []
+    n_nodes = 0
+    n_blocks = 0
+    for part in parts:
+        shift = part.grid.offset - offset  # a whole number of voxels: one global lattice
+        renumber = np.concatenate([[0], np.arange(1, len(part.blocks) + 1) + n_blocks])
+        region = part.surface.regions.copy()
+        positive = region > 0
+        region[positive] = renumber[region[positive]]
+        nodes.append(part.surface.nodes + shift)
+        moved.append(part.mesh.nodes + shift)
+        quads.append(part.surface.quads + n_nodes)
+        regions.append(region)
+        t = part.blocks
+        tables.append(BlockTable(block_id=t.block_id + n_blocks, n_voxels=t.n_voxels, volume=t.volume,
+                                 footprint_area=t.footprint_area, ground_z=t.ground_z + shift[2],
+                                 top_z=t.top_z + shift[2]))
+        measures.append(part.measures)
+        cells = np.rint(shift[:2] / h).astype(np.int64)
+        fc = part.footprint_columns.copy()
+        fc[:, 0] += n_blocks
+        fc[:, 1:] += cells
+        columns.append(fc)
+        warnings.extend(w for w in part.warnings if w not in warnings)
+        n_nodes += len(part.surface.nodes)
+        n_blocks += len(part.blocks)
+    surface = SurfaceModel(np.concatenate(nodes), np.concatenate(quads), np.concatenate(regions))
+    mesh = SurfaceModel(np.concatenate(moved), surface.quads, surface.regions)
+    table = BlockTable(**{name: np.concatenate([getattr(t, name) for t in tables])
+                          for name in BlockTable.__dataclass_fields__})
+    measure = BlockMeasures(**{name: np.concatenate([getattr(m, name) for m in measures])
+                               for name in BlockMeasures.__dataclass_fields__})
+    upper = np.max([p.grid.offset + np.asarray(p.grid.shape) * h for p in parts], axis=0)
+    grid = VoxelGrid(offset, np.zeros(3), h, tuple(int(n) for n in np.rint((upper - offset) / h)))
+    timings: dict[str, float] = {}
+    for part in parts:
+        for stage, seconds in part.timings.items():
+            timings[stage] = timings.get(stage, 0.0) + seconds
+    warnings.append(f"The data fall into {len(parts)} separate clusters, each reconstructed on its own "
+                    "grid; every cluster has its own ground and air volumes.")
+    return Reconstruction(crs=parts[0].crs, grid=grid, blocks=table, surface=surface, mesh=mesh,
+                          measures=measure, footprint_columns=np.concatenate(columns),
+                          warnings=warnings, timings=timings,
+                          stats={"clusters": len(parts)})

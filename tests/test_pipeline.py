@@ -1,0 +1,196 @@
+"""The whole method on the synthetic district, against its analytic truth.
+
+Runs the point-cloud and the mesh reconstructions at 1 m and 0.5 m voxels
+once per session and checks blocks, volumes, topology, conformity, quality,
+distances and normals against :mod:`core.synthetic`'s truth.
+"""
+import numpy as np
+import pytest
+import shapely
+from scipy.spatial import cKDTree
+
+from core.errors import Cancelled, UrbanvoxError
+from core.measure import block_faces
+from core.pipeline import ReconstructionParams, reconstruct_mesh, reconstruct_point_cloud
+from core.quality import quad_quality
+from core.readers.mesh import read_triangles
+from core.sampling import sample_triangles
+from core.surface import AIR_REGION, GROUND_REGION
+from core.topology import check_surface, signed_volume
+
+RUNS = [("las", 1.0), ("las", 0.5), ("stl", 1.0), ("stl", 0.5)]
+
+
+@pytest.fixture(scope="session")
+def runs(district):
+    """Reconstructions keyed by (input kind, voxel size)."""
+    cache = {}
+
+    def get(kind, h):
+        if (kind, h) not in cache:
+            params = ReconstructionParams(voxel_size=h, extent=district.district.extent)
+            if kind == "las":
+                cache[kind, h] = reconstruct_point_cloud(district.laz, params=params)
+            else:
+                cache[kind, h] = reconstruct_mesh(district.stl, crs=district.crs,
+                                                  ground_path=district.ground_stl, params=params)
+        return cache[kind, h]
+    return get
+
+
+def matched(result, district):
+    """(truth block, result row, block id) for every expected truth block."""
+    rows = result.block_rows()
+    footprints = [shapely.from_wkb(w) for w in result.footprint_wkb()]
+    pairs = []
+    for truth in district.expected_blocks:
+        polygon = shapely.from_wkt(truth.footprint_wkt)
+        hits = [i for i, f in enumerate(footprints) if f.intersection(polygon).area > 0.5 * polygon.area]
+        assert len(hits) == 1, f"{truth.name}: {len(hits)} reconstructed blocks cover it"
+        pairs.append((truth, rows[hits[0]], int(result.blocks.block_id[hits[0]])))
+    return pairs
+
+
+@pytest.mark.parametrize("kind,h", RUNS)
+def test_block_count_and_volumes_match_the_truth(runs, district, kind, h):
+    result = runs(kind, h)
+    assert len(result.blocks) == len(district.expected_blocks)
+    pairs = matched(result, district)
+    assert len({block for _, _, block in pairs}) == len(pairs)  # one truth block each
+    mesh_errors = []
+    for truth, row, _ in pairs:
+        # Voxel model: every voxel the true surface cuts may fall either side,
+        # so the error is at most one voxel layer over the surface.
+        assert abs(row["volume"] - truth.volume) <= truth.surface_area * h, truth.name
+        assert row["footprint_area"] == pytest.approx(truth.footprint_area, abs=truth.footprint_area ** 0.5 * 4 * h)
+        assert row["height"] == pytest.approx(truth.height, abs=1.5 * h)
+        mesh_errors.append(abs(row["mesh_volume"] - truth.volume) / truth.volume)
+    # Smoothed and projected onto the data, volumes come within a few percent.
+    assert max(mesh_errors) < 0.03
+    assert np.mean(mesh_errors) < 0.01
+
+
+def test_blocks_below_the_thresholds_are_dropped(runs, district):
+    result = runs("las", 1.0)
+    footprints = [shapely.from_wkb(w) for w in result.footprint_wkb()]
+    small = [b for b in district.blocks if b.below_thresholds]
+    assert len(small) >= 3
+    for truth in small:
+        polygon = shapely.from_wkt(truth.footprint_wkt)
+        assert not any(f.intersects(polygon) for f in footprints), truth.name
+    assert any("Dropped" in w for w in result.warnings)
+
+
+@pytest.mark.parametrize("kind,h", RUNS)
+def test_every_region_is_closed_manifold_outward_and_conforming(runs, kind, h):
+    result = runs(kind, h)
+    mesh = result.mesh.triangulated()  # moved quads are not planar: as exported
+    # Conforming by construction: one face between two different regions, never twice.
+    assert (mesh.regions[:, 0] != mesh.regions[:, 1]).all()
+    assert len(np.unique(np.sort(mesh.quads, axis=1), axis=0)) == len(mesh.quads)
+    assert check_surface(result.mesh.closed_surface(AIR_REGION)).ok  # quads too
+    regions = [int(b) for b in result.blocks.block_id] + [GROUND_REGION, AIR_REGION]
+    total = 0.0
+    for region in regions:
+        quads = mesh.closed_surface(region)
+        report = check_surface(quads)
+        assert report.ok, (region, report)
+        volume = signed_volume(mesh.nodes, quads)
+        assert volume > 0, region
+        total += volume
+    # The regions tile the domain box exactly: nothing overlaps, nothing is missing.
+    domain = np.prod(np.asarray(result.grid.shape) * result.grid.voxel_size)
+    assert total == pytest.approx(domain, rel=1e-9)
+
+
+@pytest.mark.parametrize("kind,h", RUNS)
+def test_no_face_below_the_quality_threshold(runs, kind, h):
+    result = runs(kind, h)
+    quality = quad_quality(result.mesh.nodes, result.mesh.quads)
+    assert quality.min() >= ReconstructionParams().quality_threshold
+    assert min(row["min_quality"] for row in result.block_rows()) >= 0.2
+
+
+@pytest.fixture(scope="session")
+def truth_surface(district):
+    """Dense samples of the true building surfaces (the district's STL)."""
+    corners = read_triangles(district.stl).corners()
+    return cKDTree(sample_triangles(corners, 0.05))
+
+
+@pytest.mark.parametrize("kind,h", RUNS)
+def test_smoothing_and_projection_bring_nodes_closer_to_the_true_surface(runs, district, truth_surface,
+                                                                         kind, h):
+    result = runs(kind, h)
+    quads, _ = block_faces(result.mesh)
+    nodes = np.unique(quads)
+    xmax = district.district.extent[2]
+    voxel = result.grid.to_world(result.surface.nodes[nodes])
+    final = result.grid.to_world(result.mesh.nodes[nodes])
+    inside = voxel[:, 0] < xmax - 2 * h  # the truth's border cut face is not in the STL
+    before = truth_surface.query(voxel[inside])[0].mean()
+    after = truth_surface.query(final[inside])[0].mean()
+    print(f"{kind} {h} m: mean node distance to the true surface {before:.3f} -> {after:.3f} m")
+    assert after < before
+
+
+@pytest.mark.parametrize("kind,h", RUNS)
+def test_rotated_building_facade_normals(runs, district, kind, h):
+    """Paper figure 5: walls at 45 degrees to the grid come out at 45 degrees."""
+    result = runs(kind, h)
+    block = next(b for t, _, b in matched(result, district) if t.name == "rotated45")
+    triangles = result.mesh.triangulated().closed_surface(block)
+    p = result.mesh.nodes[triangles]
+    normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    area = np.linalg.norm(normal, axis=1) / 2
+    normal /= 2 * area[:, None]
+    facade = np.abs(normal[:, 2]) < 0.5
+    # True wall normals point at 45 + 90 k degrees.
+    deviation = np.abs(np.degrees(np.arctan2(normal[facade, 1], normal[facade, 0])) % 90 - 45)
+    weights = area[facade]
+    order = np.argsort(deviation)
+    median = deviation[order][np.searchsorted(np.cumsum(weights[order]) / weights.sum(), 0.5)]
+    mean = float((deviation * weights).sum() / weights.sum())
+    print(f"{kind} {h} m: rotated45 facade normals off by {median:.1f} (median), {mean:.1f} (mean) degrees")
+    assert median <= 10.0
+    if kind == "stl":  # facades are in the data: projection straightens them everywhere
+        assert mean <= 10.0
+
+
+def test_voxel_faces_on_the_rotated_building_are_all_off_by_45_degrees(runs, district):
+    """The reference the smoothing improves on: voxel faces are axis-aligned."""
+    result = runs("stl", 1.0)
+    block = next(b for t, _, b in matched(result, district) if t.name == "rotated45")
+    quads = result.surface.closed_surface(block)
+    p = result.surface.nodes[quads]
+    normal = np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
+    horizontal = np.abs(normal[:, 2]) < 1e-9
+    angles = np.degrees(np.arctan2(normal[horizontal, 1], normal[horizontal, 0])) % 90
+    assert np.allclose(angles, 0.0)
+
+
+def test_memory_guard_stops_before_allocating(district):
+    params = ReconstructionParams(voxel_size=0.05, max_memory=64 * 2**20)
+    with pytest.raises(UrbanvoxError, match="voxel size of at least"):
+        reconstruct_point_cloud(district.laz, params=params)
+
+
+def test_cancel_stops_the_run(district):
+    calls = []
+
+    def cancelled():
+        calls.append(1)
+        return len(calls) > 3
+
+    with pytest.raises(Cancelled):
+        reconstruct_point_cloud(district.laz, params=ReconstructionParams(voxel_size=2.0),
+                                is_cancelled=cancelled)
+
+
+def test_progress_is_reported_through_every_stage(district):
+    seen = []
+    reconstruct_point_cloud(district.laz, params=ReconstructionParams(voxel_size=2.0),
+                            progress=lambda f, m: seen.append((f, m)))
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] == 1.0
+    assert len({m for _, m in seen}) >= 7
