@@ -247,7 +247,7 @@ class Reconstruction:
             shape = shapely.coverage_union_all(boxes[start:stop])
             if shape.geom_type == "MultiPolygon":  # only touching at a corner: keep the largest
                 shape = max(shape.geoms, key=lambda g: g.area)
-            out.append(shapely.to_wkb(shape))
+            out.append(shapely.to_wkb(shape, output_dimension=2))  # GEOS < 3.12 in QGIS: no 4D
         return out
 
 

@@ -1,0 +1,1 @@
+"""One module per algorithm; the parameters and outputs they share are in :mod:`.base`."""

@@ -1,0 +1,286 @@
+"""What both reconstruction algorithms share: parameters, dependency check, core call, outputs.
+
+A subclass adds its input parameters (:meth:`UrbanvoxAlgorithm.addInputParameters`)
+and runs the core (:meth:`UrbanvoxAlgorithm.reconstruct`); this class adds the
+voxel and threshold parameters, turns the core's progress, cancel and errors into
+Processing's, and writes the two feature sinks. The sinks are created only after
+the core has returned, so an error or a cancel leaves no half-written output.
+"""
+
+import importlib.util
+import math
+import os
+import sys
+
+from qgis.core import (
+    QgsCoordinateReferenceSystem,
+    QgsFeature,
+    QgsFeatureSink,
+    QgsFields,
+    QgsGeometry,
+    QgsProcessingAlgorithm,
+    QgsProcessingException,
+    QgsProcessingOutputNumber,
+    QgsProcessingParameterCrs,
+    QgsProcessingParameterFeatureSink,
+    QgsProcessingParameterNumber,
+)
+from qgis.PyQt.QtCore import QCoreApplication
+from qgis.PyQt.QtGui import QIcon
+
+from .. import ICON_PATH
+from ..compat import MULTIPOLYGON_Z, NUMBER_DOUBLE, POLYGON, VECTOR_POLYGON, make_field
+
+#: Fields every block has, in this order, as (name, kind); kind is "int", "long" or "double".
+#: Further keys of the core's block rows (measures of the smoothed mesh) follow them.
+BLOCK_FIELDS = (
+    ("block_id", "int"),
+    ("height", "double"),
+    ("ground_z", "double"),
+    ("top_z", "double"),
+    ("footprint_area", "double"),
+    ("volume", "double"),
+    ("surface_area", "double"),
+    ("n_voxels", "long"),
+)
+
+#: Python packages every algorithm needs; subclasses add their readers'.
+BASE_MODULES = ("numpy", "scipy", "pyproj", "shapely")
+
+#: What a user installs into QGIS's Python to get all of them.
+PIP_PACKAGES = ('"laspy[lazrs]"', "trimesh", "shapely", "pyproj", "scipy")
+
+
+def field_kinds(rows):
+    """(name, kind) of the output fields: :data:`BLOCK_FIELDS`, then the rows' other keys in order."""
+    kinds = list(BLOCK_FIELDS)
+    known = {name for name, _ in kinds}
+    for name, value in rows[0].items() if rows else ():
+        if name not in known:
+            kinds.append((name, "long" if isinstance(value, int) and not isinstance(value, bool) else "double"))
+    return kinds
+
+
+def block_fields(kinds):
+    """The :class:`QgsFields` for ``kinds`` (see :func:`field_kinds`)."""
+    fields = QgsFields()
+    for name, kind in kinds:
+        fields.append(make_field(name, kind))
+    return fields
+
+
+def block_attributes(row, kinds):
+    """Attribute values of a core block row as plain Python int/float (numpy scalars break GPKG
+    writes); missing or non-finite values become NULL."""
+    values = []
+    for name, kind in kinds:
+        value = row.get(name)
+        if value is None or not math.isfinite(value):
+            values.append(None)
+        else:
+            values.append(int(value) if kind != "double" else float(value))
+    return values
+
+
+def pip_command():
+    """The pip command that installs the dependencies into the Python running QGIS."""
+    # sys.executable is the QGIS binary (or whatever "python3" is first on PATH) inside QGIS:
+    # name the interpreter QGIS embeds instead.
+    python = os.path.join(sys.exec_prefix, "bin", "python{}.{}".format(*sys.version_info[:2]))
+    if os.name == "nt" or not os.path.exists(python):
+        python = "python"  # Windows: in the OSGeo4W Shell
+    packages = list(PIP_PACKAGES)
+    try:
+        import numpy
+
+        packages.append(f'"numpy=={numpy.__version__}"')  # never let pip upgrade QGIS's numpy
+    except ImportError:
+        pass
+    return f"{python} -m pip install --user {' '.join(packages)}"
+
+
+def missing_dependency_message(modules):
+    """The user-facing message for missing Python packages ``modules``."""
+    return (
+        f"urbanvox needs Python package(s) that the Python used by QGIS cannot import: {', '.join(modules)}. "
+        f"Install them with:\n    {pip_command()}\n"
+        "(Debian/Ubuntu: add --break-system-packages; Windows: run it in the OSGeo4W Shell), then restart QGIS."
+    )
+
+
+def _geometry_from_wkb(wkb):
+    geometry = QgsGeometry()
+    geometry.fromWkb(bytes(wkb))
+    return geometry
+
+
+class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
+    """Base class of the reconstruction algorithms (see the module docstring)."""
+
+    INPUT = "INPUT"
+    CRS = "CRS"
+    VOXEL_SIZE = "VOXEL_SIZE"
+    MIN_HEIGHT = "MIN_HEIGHT"
+    MIN_FOOTPRINT = "MIN_FOOTPRINT"
+    MIN_VOLUME = "MIN_VOLUME"
+    OUTPUT_BLOCKS = "OUTPUT_BLOCKS"
+    OUTPUT_FOOTPRINTS = "OUTPUT_FOOTPRINTS"
+    BLOCK_COUNT = "BLOCK_COUNT"
+    TOTAL_VOLUME = "TOTAL_VOLUME"
+
+    #: Help shared by both algorithms, appended to the subclass's own.
+    COMMON_HELP = (
+        "<p>The data are put in a grid of cubic voxels; voxels are sorted into ground, building and air "
+        "(air is flood-filled from above, so closed courtyards and inner surfaces are handled); "
+        "face-connected building voxels form a building block. Blocks lower, smaller or lighter than the "
+        "thresholds are dropped.</p>"
+        "<p><b>Voxel size</b>: edge of a voxel in metres; halving it multiplies memory and time by ~8.<br>"
+        "<b>Minimum height / footprint / volume</b>: blocks below any of them are discarded.</p>"
+        "<p><b>Blocks</b>: one MultiPolygonZ per block, its closed outer surface. "
+        "<b>Footprints</b>: one polygon per block (the columns it covers). Both have the fields block_id, "
+        "height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) and n_voxels of the "
+        "voxel model, followed by the measures of the smoothed surface the core reports.</p>"
+    )
+
+    def tr(self, text):
+        return QCoreApplication.translate("urbanvox", text)
+
+    def createInstance(self):  # noqa: N802 (QGIS API name)
+        return type(self)()
+
+    def icon(self):
+        return QIcon(ICON_PATH)
+
+    def group(self):
+        return ""
+
+    def groupId(self):  # noqa: N802 (QGIS API name)
+        return ""
+
+    # -- parameters ---------------------------------------------------------------------------
+
+    def addInputParameters(self):  # noqa: N802
+        """Add the algorithm's own input parameters (subclasses)."""
+        raise NotImplementedError
+
+    def addCrsParameter(self, description, optional):  # noqa: N802
+        self.addParameter(QgsProcessingParameterCrs(self.CRS, self.tr(description), optional=optional))
+
+    def initAlgorithm(self, config=None):  # noqa: N802 (QGIS API name)
+        self.addInputParameters()
+        for name, description, default, minimum in (
+            (self.VOXEL_SIZE, "Voxel size (m)", 1.0, 0.05),
+            (self.MIN_HEIGHT, "Minimum block height (m)", 2.5, 0.0),
+            (self.MIN_FOOTPRINT, "Minimum block footprint (m²)", 10.0, 0.0),
+            (self.MIN_VOLUME, "Minimum block volume (m³)", 20.0, 0.0),
+        ):
+            self.addParameter(
+                QgsProcessingParameterNumber(
+                    name, self.tr(description), type=NUMBER_DOUBLE, defaultValue=default, minValue=minimum
+                )
+            )
+        self.addParameter(
+            QgsProcessingParameterFeatureSink(self.OUTPUT_BLOCKS, self.tr("Building blocks (3D surfaces)"), VECTOR_POLYGON)
+        )
+        self.addParameter(
+            QgsProcessingParameterFeatureSink(self.OUTPUT_FOOTPRINTS, self.tr("Building footprints"), VECTOR_POLYGON)
+        )
+        self.addOutput(QgsProcessingOutputNumber(self.BLOCK_COUNT, self.tr("Number of building blocks")))
+        self.addOutput(QgsProcessingOutputNumber(self.TOTAL_VOLUME, self.tr("Total volume of the blocks (m³)")))
+
+    def crsArgument(self, parameters, context):  # noqa: N802
+        """The CRS parameter as the core wants it: an authority id, WKT, or None when not set."""
+        crs = self.parameterAsCrs(parameters, self.CRS, context)
+        if not crs.isValid():
+            return None
+        return crs.authid() or crs.toWkt()
+
+    def inputPath(self, parameters, name, context):  # noqa: N802
+        """The file parameter ``name`` as a path, checked to exist ('' when an optional one is unset)."""
+        path = self.parameterAsFile(parameters, name, context)
+        if path and not os.path.isfile(path):
+            raise QgsProcessingException(self.tr("File not found: {}").format(path))
+        return path
+
+    # -- running ------------------------------------------------------------------------------
+
+    def requiredModules(self, parameters, context):  # noqa: N802
+        """Python modules this run needs (subclasses extend)."""
+        return BASE_MODULES
+
+    def reconstruct(self, pipeline, parameters, context, params, progress, is_cancelled):
+        """Run the core for this algorithm's input and return its result (subclasses)."""
+        raise NotImplementedError
+
+    def processAlgorithm(self, parameters, context, feedback):  # noqa: N802 (QGIS API name)
+        missing = [m for m in self.requiredModules(parameters, context) if importlib.util.find_spec(m) is None]
+        if missing:
+            raise QgsProcessingException(missing_dependency_message(missing))
+        from ...core import pipeline  # imported here: it needs the modules just checked
+        from ...core.errors import UrbanvoxError
+
+        params = pipeline.ReconstructionParams(
+            voxel_size=self.parameterAsDouble(parameters, self.VOXEL_SIZE, context),
+            min_height=self.parameterAsDouble(parameters, self.MIN_HEIGHT, context),
+            min_footprint=self.parameterAsDouble(parameters, self.MIN_FOOTPRINT, context),
+            min_volume=self.parameterAsDouble(parameters, self.MIN_VOLUME, context),
+        )
+
+        def progress(fraction, message=None):
+            feedback.setProgress(100.0 * min(max(float(fraction), 0.0), 1.0))
+            if message:
+                feedback.setProgressText(str(message))
+
+        try:
+            result = self.reconstruct(pipeline, parameters, context, params, progress, feedback.isCanceled)
+        except UrbanvoxError as err:  # includes Cancelled
+            raise QgsProcessingException(str(err)) from err
+
+        for warning in result.warnings:
+            feedback.pushWarning(str(warning))
+        return self.writeOutputs(result, parameters, context, feedback)
+
+    # -- outputs ------------------------------------------------------------------------------
+
+    def writeOutputs(self, result, parameters, context, feedback):  # noqa: N802
+        rows = result.block_rows()
+        surfaces = result.block_surface_wkb()
+        footprints = result.footprint_wkb()
+        if not len(rows) == len(surfaces) == len(footprints):
+            raise QgsProcessingException(
+                f"Internal error: {len(rows)} blocks, {len(surfaces)} surfaces, {len(footprints)} footprints."
+            )
+        crs = QgsCoordinateReferenceSystem.fromWkt(result.crs.to_wkt())
+        kinds = field_kinds(rows)
+        fields = block_fields(kinds)
+        sinks = {}
+        for name, wkb_type in ((self.OUTPUT_BLOCKS, MULTIPOLYGON_Z), (self.OUTPUT_FOOTPRINTS, POLYGON)):
+            sink, dest_id = self.parameterAsSink(parameters, name, context, fields, wkb_type, crs)
+            if sink is None:
+                raise QgsProcessingException(self.invalidSinkError(parameters, name))
+            sinks[name] = (sink, dest_id)
+
+        for row, surface, footprint in zip(rows, surfaces, footprints):
+            attributes = block_attributes(row, kinds)
+            self._add(sinks[self.OUTPUT_BLOCKS][0], fields, attributes, _geometry_from_wkb(surface), self.OUTPUT_BLOCKS)
+            self._add(
+                sinks[self.OUTPUT_FOOTPRINTS][0], fields, attributes, _geometry_from_wkb(footprint), self.OUTPUT_FOOTPRINTS
+            )
+
+        count = int(result.summary["block_count"])
+        volume = float(result.summary["total_volume"])
+        feedback.pushInfo(f"{count} building blocks, total volume {volume:.1f} m³.")
+        return {
+            self.OUTPUT_BLOCKS: sinks[self.OUTPUT_BLOCKS][1],
+            self.OUTPUT_FOOTPRINTS: sinks[self.OUTPUT_FOOTPRINTS][1],
+            self.BLOCK_COUNT: count,
+            self.TOTAL_VOLUME: volume,
+        }
+
+    @staticmethod
+    def _add(sink, fields, attributes, geometry, name):
+        feature = QgsFeature(fields)
+        feature.setAttributes(attributes)
+        feature.setGeometry(geometry)
+        if not sink.addFeature(feature, QgsFeatureSink.Flag.FastInsert):
+            raise QgsProcessingException(f"Could not write block {attributes[0]} to {name}: {sink.lastError()}")

@@ -1,0 +1,31 @@
+"""The ``urbanvox`` Processing provider."""
+
+from qgis.core import QgsProcessingProvider
+from qgis.PyQt.QtGui import QIcon
+
+from . import ICON_PATH
+from .algorithms.reconstruct_mesh import ReconstructFromMesh
+from .algorithms.reconstruct_point_cloud import ReconstructFromPointCloud
+
+
+class UrbanvoxProvider(QgsProcessingProvider):
+    """Building blocks from point clouds and meshes, by voxels."""
+
+    def id(self):
+        return "urbanvox"
+
+    def name(self):
+        return "urbanvox"
+
+    def longName(self):  # noqa: N802 (QGIS API name)
+        return self.tr("urbanvox: voxel building blocks from point clouds and meshes")
+
+    def icon(self):
+        return QIcon(ICON_PATH)
+
+    def svgIconPath(self):  # noqa: N802 (QGIS API name)
+        return ICON_PATH
+
+    def loadAlgorithms(self):  # noqa: N802 (QGIS API name)
+        self.addAlgorithm(ReconstructFromPointCloud())
+        self.addAlgorithm(ReconstructFromMesh())

@@ -1,0 +1,174 @@
+"""Both algorithms run through ``processing.run`` on the synthetic district (in-process QGIS)."""
+
+import math
+
+import pytest
+from qgis_helpers import gpkg_outputs, read_layer
+
+FIELDS = ["block_id", "height", "ground_z", "top_z", "footprint_area", "volume", "surface_area", "n_voxels"]
+
+
+def make_feedback(cancel_at=None):
+    """A QgsProcessingFeedback that records progress, texts and warnings; cancels at ``cancel_at`` %."""
+    from qgis.core import QgsProcessingFeedback
+
+    class Recording(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.progress, self.texts, self.warnings = [], [], []
+            self.progressChanged.connect(self._on_progress)
+
+        def _on_progress(self, value):
+            self.progress.append(value)
+            if cancel_at is not None and value >= cancel_at:
+                self.cancel()
+
+        def setProgressText(self, text):  # noqa: N802
+            self.texts.append(text)
+            super().setProgressText(text)
+
+        def pushWarning(self, warning):  # noqa: N802
+            self.warnings.append(warning)
+            super().pushWarning(warning)
+
+    return Recording()
+
+
+def check_outputs(results, gpkg, crs_authid):
+    """Both layers hold BLOCK_COUNT blocks with sane attributes; returns the footprint features."""
+    from qgis.core import QgsWkbTypes
+
+    count = results["BLOCK_COUNT"]
+    assert isinstance(count, int) and count > 0
+    blocks, block_features = read_layer(gpkg, "blocks")
+    footprints, footprint_features = read_layer(gpkg, "footprints")
+    assert len(block_features) == len(footprint_features) == count
+    assert blocks.wkbType() == QgsWkbTypes.Type.MultiPolygonZ
+    assert footprints.wkbType() == QgsWkbTypes.Type.Polygon
+    for layer in (blocks, footprints):
+        assert layer.crs().authid() == crs_authid
+        names = [f.name() for f in layer.fields()]
+        assert names[1 : 1 + len(FIELDS)] == FIELDS  # a GPKG adds fid in front; the core may add more after
+    total = 0.0
+    for block, footprint in zip(block_features, footprint_features):
+        assert block["block_id"] == footprint["block_id"]
+        for name in ("height", "footprint_area", "volume", "surface_area"):
+            assert math.isfinite(block[name]) and block[name] > 0, (name, block.attributes())
+        assert block["top_z"] - block["ground_z"] == pytest.approx(block["height"], abs=1e-6)
+        assert block["n_voxels"] > 0
+        assert not block.geometry().isEmpty() and not footprint.geometry().isEmpty()
+        # the footprint polygon is the union of the block's columns
+        assert footprint.geometry().area() == pytest.approx(footprint["footprint_area"], rel=1e-6)
+        total += block["volume"]
+    assert results["TOTAL_VOLUME"] == pytest.approx(total, rel=1e-9)
+    return footprint_features
+
+
+def check_against_truth(footprints, district, volume_tolerance):
+    """Most truth blocks above the thresholds are covered by one footprint; the total volume is close."""
+    from qgis.core import QgsGeometry
+
+    expected = district.expected_blocks
+    shapes = [f.geometry() for f in footprints]
+
+    def covered(block):
+        truth = QgsGeometry.fromWkt(block.footprint_wkt)
+        return any(shape.intersection(truth).area() >= 0.5 * truth.area() for shape in shapes)
+
+    missed = [b.name for b in expected if not covered(b)]
+    assert len(missed) <= 0.1 * len(expected), missed
+    truth_volume = sum(b.volume for b in expected)
+    volume = sum(f["volume"] for f in footprints)
+    assert volume == pytest.approx(truth_volume, rel=volume_tolerance)
+
+
+def test_point_cloud_on_the_synthetic_district(processing, district, tmp_path):
+    gpkg = tmp_path / "pointcloud.gpkg"
+    feedback = make_feedback()
+    results = processing.run(
+        "urbanvox:reconstructfrompointcloud",
+        {"INPUT": str(district.laz), "VOXEL_SIZE": 1.0, **gpkg_outputs(gpkg)},
+        feedback=feedback,
+    )
+    footprints = check_outputs(results, gpkg, "EPSG:2056")  # from the LAZ header
+    check_against_truth(footprints, district, volume_tolerance=0.15)
+    assert feedback.progress and max(feedback.progress) == pytest.approx(100.0)
+    assert feedback.texts  # the core's step messages
+    assert feedback.warnings  # the district has trees over roofs and blocks below the thresholds
+
+
+def test_mesh_on_the_synthetic_district(processing, district, tmp_path):
+    gpkg = tmp_path / "mesh.gpkg"
+    results = processing.run(
+        "urbanvox:reconstructfrommesh",
+        {
+            "INPUT": str(district.stl),
+            "GROUND": str(district.ground_stl),
+            "CRS": district.crs,
+            "VOXEL_SIZE": 1.0,
+            **gpkg_outputs(gpkg),
+        },
+    )
+    footprints = check_outputs(results, gpkg, "EPSG:2056")
+    check_against_truth(footprints, district, volume_tolerance=0.15)
+
+
+def test_thresholds_drop_blocks(processing, district, tmp_path):
+    params = {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0}
+    low = processing.run("urbanvox:reconstructfrompointcloud", {**params, **gpkg_outputs(tmp_path / "low.gpkg")})
+    high = processing.run(
+        "urbanvox:reconstructfrompointcloud",
+        {**params, "MIN_HEIGHT": 20.0, **gpkg_outputs(tmp_path / "high.gpkg")},
+    )
+    assert 0 < high["BLOCK_COUNT"] < low["BLOCK_COUNT"]
+    _, features = read_layer(tmp_path / "high.gpkg", "blocks")
+    assert min(f["height"] for f in features) >= 20.0
+
+
+def test_crs_parameter_overrides_a_missing_header_crs(processing, district, tmp_path):
+    las = tmp_path / "no_crs.las"
+    district.district.write_las(las, density=2.0, crs=False)
+    gpkg = tmp_path / "out.gpkg"
+    results = processing.run(
+        "urbanvox:reconstructfrompointcloud",
+        {"INPUT": str(las), "CRS": "EPSG:2056", "VOXEL_SIZE": 2.0, **gpkg_outputs(gpkg)},
+    )
+    check_outputs(results, gpkg, "EPSG:2056")
+
+
+def test_missing_crs_fails_clearly_and_writes_nothing(processing, district, tmp_path):
+    from qgis.core import QgsProcessingException
+
+    las = tmp_path / "no_crs.las"
+    district.district.write_las(las, density=0.5, crs=False)
+    gpkg = tmp_path / "out.gpkg"
+    with pytest.raises(QgsProcessingException) as err:
+        processing.run("urbanvox:reconstructfrompointcloud", {"INPUT": str(las), **gpkg_outputs(gpkg)})
+    assert "CRS" in str(err.value)
+    assert not gpkg.exists()
+
+
+def test_cancel_stops_the_run_and_writes_nothing(processing, district, tmp_path):
+    from qgis.core import QgsProcessingException
+
+    gpkg = tmp_path / "out.gpkg"
+    feedback = make_feedback(cancel_at=15.0)
+    with pytest.raises(QgsProcessingException) as err:
+        processing.run(
+            "urbanvox:reconstructfrompointcloud",
+            {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, **gpkg_outputs(gpkg)},
+            feedback=feedback,
+        )
+    assert "ancel" in str(err.value)
+    assert not gpkg.exists()
+
+
+def test_a_missing_input_file_is_reported(processing, tmp_path):
+    from qgis.core import QgsProcessingException
+
+    with pytest.raises(QgsProcessingException):
+        processing.run(
+            "urbanvox:reconstructfrompointcloud",
+            {"INPUT": str(tmp_path / "nothing.laz"), **gpkg_outputs(tmp_path / "out.gpkg")},
+        )
+    assert not (tmp_path / "out.gpkg").exists()

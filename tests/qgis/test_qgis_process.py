@@ -1,0 +1,101 @@
+"""The plugin through ``qgis_process`` (scripts/qgis-process), as users and the demo run it.
+
+These also catch what in-process tests cannot: the qgis_process executable links QGIS's GEOS
+and PROJ into the global symbol scope, so Python wheels that bundle their own copies (shapely)
+end up calling QGIS's versions there.
+"""
+
+import os
+import shutil
+import sqlite3
+import subprocess
+from pathlib import Path
+
+import pytest
+from qgis_helpers import gpkg_outputs, run_json
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+VOXEL = 2.0  # a coarser grid keeps these subprocess runs short
+
+
+def gpkg_counts(path):
+    with sqlite3.connect(f"file:{path}?mode=ro", uri=True) as db:
+        tables = [row[0] for row in db.execute("SELECT table_name FROM gpkg_contents ORDER BY table_name")]
+        return {t: db.execute(f'SELECT count(*) FROM "{t}"').fetchone()[0] for t in tables}
+
+
+def test_list_shows_both_algorithms(qgis_process):
+    proc = qgis_process("list")
+    assert proc.returncode == 0, proc.stderr
+    assert "urbanvox:reconstructfrompointcloud" in proc.stdout
+    assert "urbanvox:reconstructfrommesh" in proc.stdout
+
+
+@pytest.mark.parametrize("alg", ["reconstructfrompointcloud", "reconstructfrommesh"])
+def test_help_describes_the_parameters(qgis_process, alg):
+    proc = qgis_process("help", f"urbanvox:{alg}")
+    assert proc.returncode == 0, proc.stderr
+    for name in ("INPUT", "CRS", "VOXEL_SIZE", "MIN_HEIGHT", "OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "BLOCK_COUNT"):
+        assert name in proc.stdout
+
+
+def test_run_point_cloud_json_writes_the_geopackage(qgis_process, district, tmp_path):
+    gpkg = tmp_path / "pointcloud.gpkg"
+    proc, report = run_json(
+        qgis_process, "urbanvox:reconstructfrompointcloud", INPUT=district.laz, VOXEL_SIZE=VOXEL, **gpkg_outputs(gpkg)
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    count = report["results"]["BLOCK_COUNT"]
+    assert count > 0 and report["results"]["TOTAL_VOLUME"] > 0
+    assert gpkg_counts(gpkg) == {"blocks": count, "footprints": count}
+
+
+def test_run_mesh_json_writes_the_geopackage(qgis_process, district, tmp_path):
+    gpkg = tmp_path / "mesh.gpkg"
+    proc, report = run_json(
+        qgis_process,
+        "urbanvox:reconstructfrommesh",
+        INPUT=district.stl,
+        GROUND=district.ground_stl,
+        CRS=district.crs,
+        VOXEL_SIZE=VOXEL,
+        **gpkg_outputs(gpkg),
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    count = report["results"]["BLOCK_COUNT"]
+    assert count > 0
+    assert gpkg_counts(gpkg) == {"blocks": count, "footprints": count}
+
+
+def test_missing_crs_fails_with_a_clear_message_and_writes_nothing(qgis_process, district, tmp_path):
+    las = tmp_path / "no_crs.las"
+    district.district.write_las(las, density=0.5, crs=False)
+    gpkg = tmp_path / "out.gpkg"
+    proc, _ = run_json(qgis_process, "urbanvox:reconstructfrompointcloud", INPUT=las, **gpkg_outputs(gpkg))
+    assert proc.returncode != 0
+    output = proc.stdout + proc.stderr
+    assert "CRS" in output and "Traceback" not in output
+    assert not gpkg.exists()
+
+
+def test_without_the_dependencies_the_provider_loads_and_runs_name_the_pip_command(qgis_process, district, tmp_path):
+    """qgis_process with the project's profile and plugin path but not the venv: no shapely, laspy, trimesh."""
+    binary = os.environ.get("QGIS_PROCESS") or shutil.which("qgis_process.bin")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env.update(  # as scripts/env.sh, which the qgis_process fixture has run, minus the venv
+        QT_QPA_PLATFORM="offscreen",
+        QGIS_CUSTOM_CONFIG_PATH=os.environ.get("URBANVOX_QGIS_PROFILE", str(REPO_ROOT / ".qgis")),
+        QGIS_PLUGINPATH=str(REPO_ROOT / ".build" / "plugins"),
+    )
+
+    def run(*args):
+        return subprocess.run([binary, *map(str, args)], capture_output=True, text=True, env=env, timeout=300)
+
+    assert "urbanvox:reconstructfrompointcloud" in run("list").stdout
+    gpkg = tmp_path / "out.gpkg"
+    proc = run("run", "urbanvox:reconstructfrompointcloud", "--", f"INPUT={district.laz}",
+               *(f"{name}={value}" for name, value in gpkg_outputs(gpkg).items()))
+    output = proc.stdout + proc.stderr
+    assert proc.returncode != 0
+    assert "pip install" in output and "laspy" in output, output[-3000:]
+    assert not gpkg.exists()

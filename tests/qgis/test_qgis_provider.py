@@ -1,0 +1,127 @@
+"""The plugin, the provider and the algorithms' definitions, as QGIS sees them (no run)."""
+
+import configparser
+from pathlib import Path
+
+import pytest
+from qgis_helpers import gpkg_outputs
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+ALGORITHMS = {"urbanvox:reconstructfrompointcloud", "urbanvox:reconstructfrommesh"}
+SHARED = ["VOXEL_SIZE", "MIN_HEIGHT", "MIN_FOOTPRINT", "MIN_VOLUME", "OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS"]
+
+
+def algorithm(alg_id):
+    from qgis.core import QgsApplication
+
+    alg = QgsApplication.processingRegistry().algorithmById(alg_id)
+    assert alg is not None, alg_id
+    return alg
+
+
+def test_metadata_declares_a_processing_plugin_for_qgis_3_22_to_4():
+    meta = configparser.ConfigParser()
+    meta.read(REPO_ROOT / "metadata.txt", encoding="utf-8")
+    general = meta["general"]
+    assert general["name"] == "urbanvox"
+    assert general["hasProcessingProvider"] == "yes"
+    assert general["qgisMinimumVersion"] == "3.22"
+    assert general["qgisMaximumVersion"] == "4.99"
+    for key in ("description", "about", "version", "author", "email", "repository", "tracker", "category"):
+        assert general[key].strip(), key
+    assert "pip install" in general["about"]
+    assert (REPO_ROOT / general["icon"]).is_file()
+
+
+def test_provider_is_registered_with_both_algorithms(urbanvox_plugin):
+    from qgis.core import QgsApplication
+
+    provider = QgsApplication.processingRegistry().providerById("urbanvox")
+    assert provider.name() == "urbanvox"
+    assert not provider.icon().isNull()
+    assert {a.id() for a in provider.algorithms()} == ALGORITHMS
+    for alg in provider.algorithms():
+        assert alg.displayName() and "<p>" in alg.shortHelpString()
+        assert not alg.icon().isNull()
+
+
+def test_unload_removes_the_provider_and_init_restores_it(urbanvox_plugin):
+    from qgis.core import QgsApplication
+
+    registry = QgsApplication.processingRegistry()
+    urbanvox_plugin.unload()
+    assert registry.providerById("urbanvox") is None
+    urbanvox_plugin.initProcessing()
+    urbanvox_plugin.initProcessing()  # idempotent: initGui() calls it again in the desktop
+    assert registry.providerById("urbanvox") is not None
+
+
+@pytest.mark.parametrize("alg_id", sorted(ALGORITHMS))
+def test_shared_parameters_and_outputs(urbanvox_plugin, alg_id):
+    alg = algorithm(alg_id)
+    names = [p.name() for p in alg.parameterDefinitions()]
+    assert names[0] == "INPUT" and "CRS" in names
+    assert names[-len(SHARED):] == SHARED
+    voxel = alg.parameterDefinition("VOXEL_SIZE")
+    assert voxel.defaultValue() == 1.0 and voxel.minimum() == 0.05
+    assert alg.parameterDefinition("MIN_HEIGHT").defaultValue() == 2.5
+    assert alg.parameterDefinition("MIN_FOOTPRINT").defaultValue() == 10.0
+    assert alg.parameterDefinition("MIN_VOLUME").defaultValue() == 20.0
+    assert {o.name() for o in alg.outputDefinitions()} >= {"OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "BLOCK_COUNT", "TOTAL_VOLUME"}
+    assert alg.outputDefinition("BLOCK_COUNT").type() == "outputNumber"
+
+
+def test_point_cloud_parameters(urbanvox_plugin):
+    from qgis.core import QgsProcessingParameterDefinition
+
+    alg = algorithm("urbanvox:reconstructfrompointcloud")
+    assert alg.parameterDefinition("INPUT").fileFilter() == "LAS/LAZ (*.las *.laz)"
+    assert alg.parameterDefinition("CRS").flags() & QgsProcessingParameterDefinition.Flag.FlagOptional
+    assert alg.parameterDefinition("GROUND_CLASSES").defaultValue() == "2"
+    assert alg.parameterDefinition("BUILDING_CLASSES").defaultValue() == "6"
+
+
+def test_mesh_parameters(urbanvox_plugin):
+    from qgis.core import QgsProcessingParameterDefinition
+
+    optional = QgsProcessingParameterDefinition.Flag.FlagOptional
+    alg = algorithm("urbanvox:reconstructfrommesh")
+    assert "*.stl" in alg.parameterDefinition("INPUT").fileFilter()
+    assert alg.parameterDefinition("GROUND").flags() & optional
+    assert not alg.parameterDefinition("CRS").flags() & optional  # STL carries no CRS
+
+
+def test_missing_python_package_gives_the_pip_command(processing, district, tmp_path, monkeypatch):
+    from qgis.core import QgsProcessingException
+
+    from urbanvox.processing_provider.algorithms.reconstruct_point_cloud import ReconstructFromPointCloud
+
+    monkeypatch.setattr(
+        ReconstructFromPointCloud,
+        "requiredModules",
+        lambda self, parameters, context: ("numpy", "no_such_module_urbanvox"),
+    )
+    out = tmp_path / "out.gpkg"
+    with pytest.raises(QgsProcessingException) as err:
+        processing.run("urbanvox:reconstructfrompointcloud", {"INPUT": str(district.laz), **gpkg_outputs(out)})
+    assert "no_such_module_urbanvox" in str(err.value)
+    assert "pip install" in str(err.value) and "numpy==" in str(err.value)
+    assert not out.exists()
+
+
+def test_field_values_are_plain_python_numbers(urbanvox_plugin):
+    import numpy as np
+
+    from urbanvox.processing_provider.algorithms.base import BLOCK_FIELDS, block_attributes, field_kinds
+
+    row = {name: (np.int64(3) if kind != "double" else np.float32(1.5)) for name, kind in BLOCK_FIELDS}
+    row.update(mesh_volume=2.5, max_dist=float("nan"), extra_count=7)
+    kinds = field_kinds([row])
+    assert kinds[: len(BLOCK_FIELDS)] == list(BLOCK_FIELDS)
+    assert kinds[len(BLOCK_FIELDS):] == [("mesh_volume", "double"), ("max_dist", "double"), ("extra_count", "long")]
+    values = block_attributes(row, kinds)
+    assert [type(v) for v in values[: len(BLOCK_FIELDS)]] == [
+        int if kind != "double" else float for _, kind in BLOCK_FIELDS
+    ]
+    assert values[len(BLOCK_FIELDS):] == [2.5, None, 7]
+    assert field_kinds([]) == list(BLOCK_FIELDS)

@@ -1,0 +1,74 @@
+"""Both algorithms through ``processing.run`` on the real data of ../shared/data.
+
+Skipped when the folder is absent. Loose checks only (some blocks, finite positive
+attributes, the right CRS); the core's own tests hold the accuracy figures.
+"""
+
+import math
+
+import pytest
+from qgis_helpers import gpkg_outputs, read_layer
+
+pytestmark = pytest.mark.slow
+
+# (file under ../shared/data, CRS parameter or None to take the header's, expected CRS authid)
+POINT_CLOUDS = [
+    ("delft_ahn3/ahn3_cropped_2.laz", "EPSG:28992", "EPSG:28992"),  # no CRS in the header
+    ("ign_lidarprod/St_Barth_RGAF09_UTM20N_IGN_1988_SB_subset_100m.laz", "EPSG:5490", "EPSG:5490"),  # none either
+    ("pdal/sample_c.las", "EPSG:32610", "EPSG:32610"),  # unknown CRS
+    ("ign_lidarprod/870000_6618000.subset.postValidation.laz", None, "EPSG:2154"),
+    *[
+        (f"montpellier_ign/test_data_{tile}_LA93_IGN69.laz", None, "EPSG:2154")
+        for tile in ("77050_627755", "77050_627760", "77055_627755", "77055_627760", "77060_627755", "77060_627760")
+    ],
+]
+
+
+def check_layers(results, gpkg, authid):
+    count = results["BLOCK_COUNT"]
+    assert count > 0
+    for table in ("blocks", "footprints"):
+        layer, features = read_layer(gpkg, table)
+        assert len(features) == count
+        assert layer.crs().authid() == authid, layer.crs().toWkt()
+        for f in features:
+            for name in ("volume", "footprint_area", "height", "surface_area"):
+                assert math.isfinite(f[name]) and f[name] > 0, (table, name, f.attributes())
+            assert not f.geometry().isEmpty()
+    assert math.isfinite(results["TOTAL_VOLUME"]) and results["TOTAL_VOLUME"] > 0
+
+
+@pytest.mark.parametrize("relative, crs, authid", POINT_CLOUDS, ids=[p[0].split("/")[-1] for p in POINT_CLOUDS])
+def test_point_cloud(processing, shared_data, tmp_path, relative, crs, authid):
+    path = shared_data / relative
+    if not path.exists():
+        pytest.skip(f"{path} not found")
+    gpkg = tmp_path / "out.gpkg"
+    parameters = {"INPUT": str(path), **gpkg_outputs(gpkg)}
+    if crs:
+        parameters["CRS"] = crs
+    results = processing.run("urbanvox:reconstructfrompointcloud", parameters)
+    check_layers(results, gpkg, authid)
+
+
+def test_delft_without_crs_asks_for_one(processing, shared_data, tmp_path):
+    from qgis.core import QgsProcessingException
+
+    gpkg = tmp_path / "out.gpkg"
+    with pytest.raises(QgsProcessingException, match="CRS"):
+        processing.run(
+            "urbanvox:reconstructfrompointcloud",
+            {"INPUT": str(shared_data / "delft_ahn3/ahn3_cropped_2.laz"), **gpkg_outputs(gpkg)},
+        )
+    assert not gpkg.exists()
+
+
+def test_zurich_lod2_mesh(processing, shared_data, tmp_path):
+    path = shared_data / "cityjson/zurich_subset_lod2_buildings.stl"
+    if not path.exists():
+        pytest.skip(f"{path} not found")
+    gpkg = tmp_path / "out.gpkg"
+    # 49 buildings scattered over 9 x 10 km: a 1 m grid would need ~300 GiB, so a coarse one
+    parameters = {"INPUT": str(path), "CRS": "EPSG:2056", "VOXEL_SIZE": 10.0, **gpkg_outputs(gpkg)}
+    results = processing.run("urbanvox:reconstructfrommesh", parameters)
+    check_layers(results, gpkg, "EPSG:2056")
