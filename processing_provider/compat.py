@@ -9,6 +9,7 @@ from qgis.core import (
     Qgis,
     QgsField,
     QgsProcessing,
+    QgsProcessingParameterDefinition,
     QgsProcessingParameterFile,
     QgsProcessingParameterNumber,
     QgsWkbTypes,
@@ -32,6 +33,15 @@ VECTOR_POLYGON = _first(
 NUMBER_DOUBLE = _first(
     lambda: Qgis.ProcessingNumberParameterType.Double,
     lambda: QgsProcessingParameterNumber.Type.Double,
+)
+NUMBER_INTEGER = _first(
+    lambda: Qgis.ProcessingNumberParameterType.Integer,
+    lambda: QgsProcessingParameterNumber.Type.Integer,
+)
+# Advanced parameters: Qgis.ProcessingParameterFlag (>= 3.36) or QgsProcessingParameterDefinition.Flag.
+FLAG_ADVANCED = _first(
+    lambda: Qgis.ProcessingParameterFlag.Advanced,
+    lambda: QgsProcessingParameterDefinition.Flag.FlagAdvanced,
 )
 FILE_BEHAVIOR = _first(
     lambda: Qgis.ProcessingFileParameterBehavior.File,

@@ -20,16 +20,21 @@ from qgis.core import (
     QgsGeometry,
     QgsProcessingAlgorithm,
     QgsProcessingException,
+    QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
+    QgsProcessingParameterBoolean,
     QgsProcessingParameterCrs,
+    QgsProcessingParameterExtent,
     QgsProcessingParameterFeatureSink,
+    QgsProcessingParameterFileDestination,
     QgsProcessingParameterNumber,
 )
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
 from .. import ICON_PATH
-from ..compat import MULTIPOLYGON_Z, NUMBER_DOUBLE, POLYGON, VECTOR_POLYGON, make_field
+from ..compat import (FLAG_ADVANCED, MULTIPOLYGON_Z, NUMBER_DOUBLE, NUMBER_INTEGER, POLYGON, VECTOR_POLYGON,
+                      make_field)
 
 #: Fields every block has, in this order, as (name, kind); kind is "int", "long" or "double".
 #: Further keys of the core's block rows (measures of the smoothed mesh) follow them.
@@ -123,8 +128,15 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
     MIN_HEIGHT = "MIN_HEIGHT"
     MIN_FOOTPRINT = "MIN_FOOTPRINT"
     MIN_VOLUME = "MIN_VOLUME"
+    EXTENT = "EXTENT"
+    SMOOTHING_ITERATIONS = "SMOOTHING_ITERATIONS"
+    PROJECT = "PROJECT"
+    QUALITY_THRESHOLD = "QUALITY_THRESHOLD"
     OUTPUT_BLOCKS = "OUTPUT_BLOCKS"
     OUTPUT_FOOTPRINTS = "OUTPUT_FOOTPRINTS"
+    OUTPUT_GROUND = "OUTPUT_GROUND"
+    OUTPUT_MESH = "OUTPUT_MESH"
+    OUTPUT_PREVIEW = "OUTPUT_PREVIEW"
     BLOCK_COUNT = "BLOCK_COUNT"
     TOTAL_VOLUME = "TOTAL_VOLUME"
 
@@ -135,11 +147,20 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         "face-connected building voxels form a building block. Blocks lower, smaller or lighter than the "
         "thresholds are dropped.</p>"
         "<p><b>Voxel size</b>: edge of a voxel in metres; halving it multiplies memory and time by ~8.<br>"
-        "<b>Minimum height / footprint / volume</b>: blocks below any of them are discarded.</p>"
-        "<p><b>Blocks</b>: one MultiPolygonZ per block, its closed outer surface. "
+        "<b>Minimum height / footprint / volume</b>: blocks below any of them are discarded.<br>"
+        "<b>Smoothing passes</b>: vertex-only Catmull-Clark passes (paper: 3); nodes at the foot of the walls "
+        "keep their height. <b>Project</b>: move the smoothed nodes onto moving-least-squares planes of the "
+        "data. <b>Minimum face quality</b>: a smoothing or projection move that would leave a worse face is "
+        "refused (a voxel face scores 0.72).<br>"
+        "<b>Domain extent</b>: clip the data; blocks crossing it are closed on its sides.</p>"
+        "<p><b>Blocks</b>: one MultiPolygonZ per block, its closed outer surface (smoothed and projected). "
         "<b>Footprints</b>: one polygon per block (the columns it covers). Both have the fields block_id, "
         "height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) and n_voxels of the "
-        "voxel model, followed by the measures of the smoothed surface the core reports.</p>"
+        "voxel model, then mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, "
+        "mean_dist and max_dist (m, nodes to the data) of the final mesh. <b>Ground surface</b>: the "
+        "terrain, in tiles. <b>Mesh file</b>: closed, conforming surfaces of every block, the ground and the "
+        "air; the extension picks the format (.msh with physical groups per interface and per region, .vtu, "
+        ".obj, .stl, .ply); a PNG preview is written beside it.</p>"
     )
 
     def tr(self, text):
@@ -179,12 +200,41 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                     name, self.tr(description), type=NUMBER_DOUBLE, defaultValue=default, minValue=minimum
                 )
             )
+        extent = QgsProcessingParameterExtent(self.EXTENT, self.tr("Domain extent (default: the data's)"),
+                                              optional=True)
+        extent.setFlags(extent.flags() | FLAG_ADVANCED)
+        self.addParameter(extent)
+        self.addParameter(
+            QgsProcessingParameterNumber(self.SMOOTHING_ITERATIONS, self.tr("Smoothing passes (Catmull-Clark)"),
+                                         type=NUMBER_INTEGER, defaultValue=3, minValue=0, maxValue=20)
+        )
+        self.addParameter(
+            QgsProcessingParameterBoolean(self.PROJECT, self.tr("Project the smoothed surfaces onto the data"),
+                                          defaultValue=True)
+        )
+        quality = QgsProcessingParameterNumber(
+            self.QUALITY_THRESHOLD, self.tr("Minimum face quality (inradius / longest edge, 1 = equilateral)"),
+            type=NUMBER_DOUBLE, defaultValue=0.2, minValue=0.0, maxValue=0.7)
+        quality.setFlags(quality.flags() | FLAG_ADVANCED)
+        self.addParameter(quality)
         self.addParameter(
             QgsProcessingParameterFeatureSink(self.OUTPUT_BLOCKS, self.tr("Building blocks (3D surfaces)"), VECTOR_POLYGON)
         )
         self.addParameter(
             QgsProcessingParameterFeatureSink(self.OUTPUT_FOOTPRINTS, self.tr("Building footprints"), VECTOR_POLYGON)
         )
+        self.addParameter(
+            QgsProcessingParameterFeatureSink(self.OUTPUT_GROUND, self.tr("Ground surface"), VECTOR_POLYGON,
+                                              optional=True, createByDefault=False)
+        )
+        self.addParameter(
+            QgsProcessingParameterFileDestination(
+                self.OUTPUT_MESH, self.tr("Conforming mesh file (blocks, ground, air)"),
+                self.tr("gmsh (*.msh);;VTK unstructured grid (*.vtu);;Wavefront OBJ (*.obj);;"
+                        "STL, one solid per region (*.stl);;PLY (*.ply)"),
+                optional=True, createByDefault=False)
+        )
+        self.addOutput(QgsProcessingOutputFile(self.OUTPUT_PREVIEW, self.tr("Preview picture (PNG)")))
         self.addOutput(QgsProcessingOutputNumber(self.BLOCK_COUNT, self.tr("Number of building blocks")))
         self.addOutput(QgsProcessingOutputNumber(self.TOTAL_VOLUME, self.tr("Total volume of the blocks (m³)")))
 
@@ -194,6 +244,15 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         if not crs.isValid():
             return None
         return crs.authid() or crs.toWkt()
+
+    def extentArgument(self, parameters, context):  # noqa: N802
+        """The EXTENT parameter as (xmin, ymin, xmax, ymax) in the data's CRS, or None."""
+        if not parameters.get(self.EXTENT):
+            return None
+        rect = self.parameterAsExtent(parameters, self.EXTENT, context)
+        if rect.isNull() or rect.isEmpty():
+            return None
+        return (float(rect.xMinimum()), float(rect.yMinimum()), float(rect.xMaximum()), float(rect.yMaximum()))
 
     def inputPath(self, parameters, name, context):  # noqa: N802
         """The file parameter ``name`` as a path, checked to exist ('' when an optional one is unset)."""
@@ -224,6 +283,10 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
             min_height=self.parameterAsDouble(parameters, self.MIN_HEIGHT, context),
             min_footprint=self.parameterAsDouble(parameters, self.MIN_FOOTPRINT, context),
             min_volume=self.parameterAsDouble(parameters, self.MIN_VOLUME, context),
+            smoothing_iterations=self.parameterAsInt(parameters, self.SMOOTHING_ITERATIONS, context),
+            project=self.parameterAsBoolean(parameters, self.PROJECT, context),
+            quality_threshold=self.parameterAsDouble(parameters, self.QUALITY_THRESHOLD, context),
+            extent=self.extentArgument(parameters, context),
         )
 
         def progress(fraction, message=None):
@@ -267,15 +330,39 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                 sinks[self.OUTPUT_FOOTPRINTS][0], fields, attributes, _geometry_from_wkb(footprint), self.OUTPUT_FOOTPRINTS
             )
 
+        outputs = {}
+        ground_sink = None
+        if parameters.get(self.OUTPUT_GROUND):
+            ground_fields = QgsFields()
+            ground_fields.append(make_field("tile", "int"))
+            ground_sink, ground_id = self.parameterAsSink(parameters, self.OUTPUT_GROUND, context, ground_fields,
+                                                          MULTIPOLYGON_Z, crs)
+            if ground_sink is not None:
+                for tile, wkb in enumerate(result.ground_surface_wkb()):
+                    self._add(ground_sink, ground_fields, [tile], _geometry_from_wkb(wkb), self.OUTPUT_GROUND)
+                outputs[self.OUTPUT_GROUND] = ground_id
+        mesh_path = self.parameterAsFileOutput(parameters, self.OUTPUT_MESH, context)
+        if mesh_path:
+            try:
+                result.write_mesh(mesh_path)
+                preview = os.path.splitext(mesh_path)[0] + ".png"
+                result.write_preview(preview)
+            except Exception as err:  # UrbanvoxError, or an I/O error: say which file
+                raise QgsProcessingException(f"Could not write {mesh_path}: {err}") from err
+            outputs[self.OUTPUT_MESH] = mesh_path
+            outputs[self.OUTPUT_PREVIEW] = preview
+            feedback.pushInfo(f"Mesh written to {mesh_path}, preview to {preview}.")
+
         count = int(result.summary["block_count"])
         volume = float(result.summary["total_volume"])
         feedback.pushInfo(f"{count} building blocks, total volume {volume:.1f} m³.")
-        return {
+        outputs.update({
             self.OUTPUT_BLOCKS: sinks[self.OUTPUT_BLOCKS][1],
             self.OUTPUT_FOOTPRINTS: sinks[self.OUTPUT_FOOTPRINTS][1],
             self.BLOCK_COUNT: count,
             self.TOTAL_VOLUME: volume,
-        }
+        })
+        return outputs
 
     @staticmethod
     def _add(sink, fields, attributes, geometry, name):

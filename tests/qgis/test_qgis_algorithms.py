@@ -3,7 +3,7 @@
 import math
 
 import pytest
-from qgis_helpers import gpkg_outputs, read_layer
+from qgis_helpers import gpkg_outputs, gpkg_sink, read_layer
 
 FIELDS = ["block_id", "height", "ground_z", "top_z", "footprint_area", "volume", "surface_area", "n_voxels"]
 
@@ -172,3 +172,27 @@ def test_a_missing_input_file_is_reported(processing, tmp_path):
             {"INPUT": str(tmp_path / "nothing.laz"), **gpkg_outputs(tmp_path / "out.gpkg")},
         )
     assert not (tmp_path / "out.gpkg").exists()
+
+
+def test_smoothed_outputs_ground_layer_mesh_file_and_preview(processing, district, tmp_path):
+    """Paper §4 outputs: smoothed blocks with mesh measures, the terrain, a mesh file and a PNG."""
+    gpkg = tmp_path / "smoothed.gpkg"
+    mesh = tmp_path / "district.obj"
+    results = processing.run(
+        "urbanvox:reconstructfrompointcloud",
+        {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "SMOOTHING_ITERATIONS": 3, "PROJECT": True,
+         "QUALITY_THRESHOLD": 0.25, "EXTENT": "2600000,2600250,1200000,1200250 [EPSG:2056]",
+         **gpkg_outputs(gpkg), "OUTPUT_GROUND": gpkg_sink(gpkg, "ground"), "OUTPUT_MESH": str(mesh)},
+    )
+    _, blocks = read_layer(gpkg, "blocks")
+    assert len(blocks) == results["BLOCK_COUNT"] > 40
+    for feature in blocks:
+        assert feature["min_quality"] >= 0.25
+        assert 0.5 * feature["volume"] < feature["mesh_volume"] < 1.5 * feature["volume"]  # 2 m voxels: coarse
+        assert feature["roof_area"] > 0 and feature["facade_area"] > 0
+    _, ground = read_layer(gpkg, "ground")
+    assert len(ground) >= 4 and all(f.geometry().constGet().is3D() for f in ground)
+    groups = [line.split()[1] for line in mesh.read_text().splitlines() if line.startswith("g ")]
+    assert groups.count("ground") == 1 and groups.count("air") == 1 and len(groups) == len(blocks) + 2
+    preview = results["OUTPUT_PREVIEW"]
+    assert preview.endswith(".png") and open(preview, "rb").read(4) == b"\x89PNG"
