@@ -11,14 +11,18 @@ from qgis_helpers import gpkg_outputs, read_layer
 
 pytestmark = pytest.mark.slow
 
-# (file under ../shared/data, CRS parameter or None to take the header's, expected CRS authid)
+# (file under ../shared/data, CRS parameter or None to take the header's, expected CRS authid,
+#  block count range, total volume range in m³ at 1 m voxels). The ranges were set by looking at
+#  oblique pictures of the results (core.preview): Delft's strip of 10 blocks with the church tower,
+#  St-Barth's 9 houses, sample_c's single large block, Jura's 4 village houses.
 POINT_CLOUDS = [
-    ("delft_ahn3/ahn3_cropped_2.laz", "EPSG:28992", "EPSG:28992"),  # no CRS in the header
-    ("ign_lidarprod/St_Barth_RGAF09_UTM20N_IGN_1988_SB_subset_100m.laz", "EPSG:5490", "EPSG:5490"),  # none either
-    ("pdal/sample_c.las", "EPSG:32610", "EPSG:32610"),  # unknown CRS
-    ("ign_lidarprod/870000_6618000.subset.postValidation.laz", None, "EPSG:2154"),
+    ("delft_ahn3/ahn3_cropped_2.laz", "EPSG:28992", "EPSG:28992", (8, 12), (25e3, 40e3)),  # no CRS in the header
+    ("ign_lidarprod/St_Barth_RGAF09_UTM20N_IGN_1988_SB_subset_100m.laz", "EPSG:5490", "EPSG:5490", (7, 11),
+     (8e3, 14e3)),  # none either
+    ("pdal/sample_c.las", "EPSG:32610", "EPSG:32610", (1, 2), (50e3, 70e3)),  # unknown CRS
+    ("ign_lidarprod/870000_6618000.subset.postValidation.laz", None, "EPSG:2154", (3, 5), (2.5e3, 4e3)),
     *[
-        (f"montpellier_ign/test_data_{tile}_LA93_IGN69.laz", None, "EPSG:2154")
+        (f"montpellier_ign/test_data_{tile}_LA93_IGN69.laz", None, "EPSG:2154", (1, 4), (1e3, 20e3))
         for tile in ("77050_627755", "77050_627760", "77055_627755", "77055_627760", "77060_627755", "77060_627760")
     ],
 ]
@@ -38,8 +42,9 @@ def check_layers(results, gpkg, authid):
     assert math.isfinite(results["TOTAL_VOLUME"]) and results["TOTAL_VOLUME"] > 0
 
 
-@pytest.mark.parametrize("relative, crs, authid", POINT_CLOUDS, ids=[p[0].split("/")[-1] for p in POINT_CLOUDS])
-def test_point_cloud(processing, shared_data, tmp_path, relative, crs, authid):
+@pytest.mark.parametrize("relative, crs, authid, counts, volumes", POINT_CLOUDS,
+                         ids=[p[0].split("/")[-1] for p in POINT_CLOUDS])
+def test_point_cloud(processing, shared_data, tmp_path, relative, crs, authid, counts, volumes):
     path = shared_data / relative
     if not path.exists():
         pytest.skip(f"{path} not found")
@@ -49,6 +54,8 @@ def test_point_cloud(processing, shared_data, tmp_path, relative, crs, authid):
         parameters["CRS"] = crs
     results = processing.run("urbanvox:reconstructfrompointcloud", parameters)
     check_layers(results, gpkg, authid)
+    assert counts[0] <= results["BLOCK_COUNT"] <= counts[1]
+    assert volumes[0] <= results["TOTAL_VOLUME"] <= volumes[1]
 
 
 def test_delft_without_crs_asks_for_one(processing, shared_data, tmp_path):
@@ -68,7 +75,9 @@ def test_zurich_lod2_mesh(processing, shared_data, tmp_path):
     if not path.exists():
         pytest.skip(f"{path} not found")
     gpkg = tmp_path / "out.gpkg"
-    # 49 buildings scattered over 9 x 10 km: a 1 m grid would need ~300 GiB, so a coarse one
-    parameters = {"INPUT": str(path), "CRS": "EPSG:2056", "VOXEL_SIZE": 10.0, **gpkg_outputs(gpkg)}
+    # 49 buildings scattered over 9 x 10 km: each cluster gets a grid of its own.
+    parameters = {"INPUT": str(path), "CRS": "EPSG:2056", "VOXEL_SIZE": 1.0, **gpkg_outputs(gpkg)}
     results = processing.run("urbanvox:reconstructfrommesh", parameters)
     check_layers(results, gpkg, "EPSG:2056")
+    assert 46 <= results["BLOCK_COUNT"] <= 52
+    assert 140e3 <= results["TOTAL_VOLUME"] <= 200e3
