@@ -23,6 +23,8 @@ run() {
   if ! scripts/qgis-process --json run "urbanvox:$alg" -- "$@" \
       "OUTPUT_BLOCKS=ogr:dbname='$gpkg' table=\"blocks\" (geom)" \
       "OUTPUT_FOOTPRINTS=ogr:dbname='$gpkg' table=\"footprints\" (geom)" \
+      "OUTPUT_GROUND=ogr:dbname='$gpkg' table=\"ground\" (geom)" \
+      "OUTPUT_MESH=$out/$name.msh" \
       >"$out/$name.json" 2>"$out/$name.log"; then
     cat "$out/$name.log" >&2
     echo "urbanvox:$alg failed; log above (demo-output/$name.log)" >&2
@@ -34,4 +36,7 @@ run() {
 run pointcloud reconstructfrompointcloud "INPUT=$out/data/district.laz" VOXEL_SIZE=1.0
 run mesh reconstructfrommesh "INPUT=$out/data/district.stl" "GROUND=$out/data/district_ground.stl" \
   CRS=EPSG:2056 VOXEL_SIZE=1.0
-echo "== Done: open demo-output/pointcloud.gpkg and demo-output/mesh.gpkg in QGIS (layers blocks, footprints)."
+echo "== Done. In demo-output/:"
+echo "   pointcloud.gpkg, mesh.gpkg   layers blocks, footprints, ground (open them in QGIS)"
+echo "   pointcloud.msh, mesh.msh     gmsh meshes: a physical surface per interface, a physical volume per region"
+echo "   pointcloud.png, mesh.png     pictures: the voxel model beside the smoothed, projected one"
