@@ -451,9 +451,11 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         nodes, stats["projection_buildings"] = project_nodes(
             surface, nodes, roles, on_buildings, building, h, params.quality_threshold, angle,
             is_cancelled=is_cancelled)
+        # Terrain nodes move along the (near vertical) terrain normal, away from
+        # any other surface: the costly crossing test is kept for the buildings.
         nodes, stats["projection_ground"] = project_nodes(
             surface, nodes, roles, on_terrain, ground_data, h, params.quality_threshold, angle,
-            is_cancelled=is_cancelled)
+            check_crossings=False, is_cancelled=is_cancelled)
         lap("project")
     mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
     # Distance of block nodes to the data (the nearest building or ground point).

@@ -12,7 +12,8 @@ quad split into the two triangles that maximise the shape quality
    ``max_angle``), the node moves along its normal onto the plane;
    otherwise the next data point is tried;
 4. the move is kept only if the faces around the node stay acceptable
-   (:func:`core.quality.accept_moves`).
+   (:func:`core.quality.accept_moves`) and no face it moves crosses another
+   (:func:`core.intersect.undo_crossings`).
 
 Everything is batched over nodes (KD-tree queries and a batched 3 x 3
 eigen-solver); the candidate loop runs a fixed few times, not per node.
@@ -25,6 +26,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from .errors import Cancelled
+from .intersect import undo_crossings
 from .quality import accept_moves, best_split
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
@@ -101,7 +103,7 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
 
 def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, select: np.ndarray,
                   data: np.ndarray, voxel_size: float, threshold: float,
-                  max_angle: float = 45.0, max_distance: float = 1.5,
+                  max_angle: float = 45.0, max_distance: float = 1.5, check_crossings: bool = True,
                   is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, dict]:
     """Project the ``select`` nodes onto ``data`` through MLS planes.
 
@@ -122,13 +124,16 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
         Largest angle (degrees) between a node normal and a plane normal.
     max_distance : float
         Largest move and search radius, in voxel sizes.
+    check_crossings : bool
+        Undo moves that make a face cross another (:mod:`core.intersect`).
 
     Returns
     -------
     nodes : ndarray (N, 3)
     stats : dict
-        ``projected`` (moves kept), ``no_plane`` (no compatible plane) and
-        ``refused`` (moves undone by the quality control).
+        ``projected`` (moves kept), ``no_plane`` (no compatible plane),
+        ``refused`` (moves undone by the quality control) and ``crossing``
+        (of those, undone because a face would cross another).
     """
     select = select & roles.movable
     idx_nodes = np.flatnonzero(select)
@@ -176,6 +181,10 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     proposal[idx_nodes] = np.where(roles.fixed_axes[idx_nodes], p, target)
     wanted = np.any(proposal != nodes, axis=1)
     result, kept = accept_moves(nodes, proposal, model.quads, threshold)
+    # A node pushed along its normal may cross a face of a thin neighbouring part.
+    stats["crossing"] = 0
+    if check_crossings:
+        result, kept, stats["crossing"] = undo_crossings(nodes, result, kept & wanted, model.quads)
     stats["projected"] = int((wanted & kept).sum())
     stats["refused"] = int((wanted & ~kept).sum())
     return result, stats

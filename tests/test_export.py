@@ -109,9 +109,6 @@ def test_gmsh_meshes_air_and_every_block_of_the_district(result, tmp_path):
     assert worst > 0  # no inverted tetrahedron
 
 
-@pytest.mark.xfail(strict=True, reason="projection can move a node of a real, irregular building through "
-                   "a neighbouring face (gmsh: 'PLC Error: a segment and a facet intersect'); the quality "
-                   "control does not yet test self-intersection. The voxel and smoothed meshes pass.")
 def test_gmsh_meshes_the_zurich_stl(shared_data, tmp_path):
     stl = shared_data / "cityjson" / "zurich_subset_lod2_buildings.stl"
     if not stl.exists():
@@ -123,18 +120,6 @@ def test_gmsh_meshes_the_zurich_stl(shared_data, tmp_path):
     counts, worst = gmsh_volume_mesh(zurich.write_mesh(tmp_path / "zurich.msh"))
     assert len(counts) == len(zurich.blocks) + 2
     assert all(n > 0 for n in counts.values()), counts
-    assert worst > 0
-
-
-def test_gmsh_meshes_the_smoothed_zurich_stl_before_projection(shared_data, tmp_path):
-    stl = shared_data / "cityjson" / "zurich_subset_lod2_buildings.stl"
-    if not stl.exists():
-        pytest.skip("Zurich STL not in the shared data")
-    extent = (2684219.0, 1246078.0, 2684719.0, 1247079.0)
-    params = ReconstructionParams(voxel_size=2.0, extent=extent, project=False)
-    zurich = reconstruct_mesh(stl, crs="EPSG:2056", params=params)
-    counts, worst = gmsh_volume_mesh(zurich.write_mesh(tmp_path / "zurich.msh"))
-    assert len(counts) == len(zurich.blocks) + 2 and all(n > 0 for n in counts.values())
     assert worst > 0
 
 
