@@ -322,7 +322,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
                        progress: Progress | None = None,
                        is_cancelled: CancelCheck | None = None,
                        split: bool = True) -> Reconstruction:
-    """The paper's §2-3 on ground and building points in world coordinates.
+    """The paper's §2-4 on ground and building points in world coordinates.
 
     Parameters
     ----------

@@ -99,3 +99,48 @@ def test_without_the_dependencies_the_provider_loads_and_runs_name_the_pip_comma
     assert proc.returncode != 0
     assert "pip install" in output and "laspy" in output, output[-3000:]
     assert not gpkg.exists()
+
+
+def write_las(path, xyz, classes, crs=None):
+    import laspy
+    import numpy as np
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.offsets = np.floor(xyz.min(axis=0)) if len(xyz) else np.zeros(3)
+    header.scales = np.array([0.001, 0.001, 0.001])
+    if crs:
+        import pyproj
+        header.add_crs(pyproj.CRS.from_user_input(crs))
+    las = laspy.LasData(header)
+    las.x, las.y, las.z = xyz.T if len(xyz) else (np.zeros(0),) * 3
+    las.classification = classes
+    las.write(path)
+
+
+def bad_inputs(tmp_path):
+    import numpy as np
+
+    rng = np.random.default_rng(0)
+    xyz = np.column_stack([rng.uniform(0, 50, 2000) + 2_600_000, rng.uniform(0, 50, 2000) + 1_200_000,
+                           rng.uniform(400, 410, 2000)])
+    empty = tmp_path / "empty.las"
+    write_las(empty, np.zeros((0, 3)), np.zeros(0, np.uint8), crs="EPSG:2056")
+    no_ground = tmp_path / "no_ground.las"
+    write_las(no_ground, xyz, np.full(2000, 6, np.uint8), crs="EPSG:2056")
+    geographic = tmp_path / "geographic.las"
+    write_las(geographic, xyz - [2_600_000 - 6, 1_200_000 - 46, 0], np.full(2000, 2, np.uint8), crs="EPSG:4326")
+    return {"empty": (empty, "no points"), "no_ground": (no_ground, "GROUND_CLASSES"),
+            "geographic": (geographic, "geographic")}
+
+
+@pytest.mark.parametrize("case", ["empty", "no_ground", "geographic"])
+def test_bad_input_fails_with_a_clear_message_and_writes_nothing(qgis_process, tmp_path, case):
+    path, expected = bad_inputs(tmp_path)[case]
+    gpkg = tmp_path / "out.gpkg"
+    mesh = tmp_path / "out.msh"
+    proc, _ = run_json(qgis_process, "urbanvox:reconstructfrompointcloud", INPUT=path, OUTPUT_MESH=mesh,
+                       **gpkg_outputs(gpkg))
+    output = proc.stdout + proc.stderr
+    assert proc.returncode != 0
+    assert expected.lower() in output.lower() and "Traceback" not in output, output[-2000:]
+    assert not gpkg.exists() and not mesh.exists()

@@ -1,4 +1,4 @@
-"""Both algorithms through ``processing.run`` on the real data of ../shared/data.
+"""Both algorithms through ``qgis_process run`` on the real data of ../shared/data.
 
 Skipped when the folder is absent. Loose checks only (some blocks, finite positive
 attributes, the right CRS); the core's own tests hold the accuracy figures.
@@ -7,7 +7,7 @@ attributes, the right CRS); the core's own tests hold the accuracy figures.
 import math
 
 import pytest
-from qgis_helpers import gpkg_outputs, read_layer
+from qgis_helpers import gpkg_outputs, read_layer, run_json
 
 pytestmark = pytest.mark.slow
 
@@ -28,6 +28,13 @@ POINT_CLOUDS = [
 ]
 
 
+def run(qgis_process, algorithm, **parameters):
+    """``qgis_process run``; the results of its JSON report."""
+    proc, report = run_json(qgis_process, algorithm, **parameters)
+    assert proc.returncode == 0 and report, (proc.stdout + proc.stderr)[-3000:]
+    return report["results"]
+
+
 def check_layers(results, gpkg, authid):
     count = results["BLOCK_COUNT"]
     assert count > 0
@@ -44,7 +51,7 @@ def check_layers(results, gpkg, authid):
 
 @pytest.mark.parametrize("relative, crs, authid, counts, volumes", POINT_CLOUDS,
                          ids=[p[0].split("/")[-1] for p in POINT_CLOUDS])
-def test_point_cloud(processing, shared_data, tmp_path, relative, crs, authid, counts, volumes):
+def test_point_cloud(qgis_app, qgis_process, shared_data, tmp_path, relative, crs, authid, counts, volumes):
     path = shared_data / relative
     if not path.exists():
         pytest.skip(f"{path} not found")
@@ -52,7 +59,7 @@ def test_point_cloud(processing, shared_data, tmp_path, relative, crs, authid, c
     parameters = {"INPUT": str(path), **gpkg_outputs(gpkg)}
     if crs:
         parameters["CRS"] = crs
-    results = processing.run("urbanvox:reconstructfrompointcloud", parameters)
+    results = run(qgis_process, "urbanvox:reconstructfrompointcloud", **parameters)
     check_layers(results, gpkg, authid)
     assert counts[0] <= results["BLOCK_COUNT"] <= counts[1]
     assert volumes[0] <= results["TOTAL_VOLUME"] <= volumes[1]
@@ -70,14 +77,14 @@ def test_delft_without_crs_asks_for_one(processing, shared_data, tmp_path):
     assert not gpkg.exists()
 
 
-def test_zurich_lod2_mesh(processing, shared_data, tmp_path):
+def test_zurich_lod2_mesh(qgis_app, qgis_process, shared_data, tmp_path):
     path = shared_data / "cityjson/zurich_subset_lod2_buildings.stl"
     if not path.exists():
         pytest.skip(f"{path} not found")
     gpkg = tmp_path / "out.gpkg"
     # 49 buildings scattered over 9 x 10 km: each cluster gets a grid of its own.
     parameters = {"INPUT": str(path), "CRS": "EPSG:2056", "VOXEL_SIZE": 1.0, **gpkg_outputs(gpkg)}
-    results = processing.run("urbanvox:reconstructfrommesh", parameters)
+    results = run(qgis_process, "urbanvox:reconstructfrommesh", **parameters)
     check_layers(results, gpkg, "EPSG:2056")
     assert 46 <= results["BLOCK_COUNT"] <= 52
     assert 140e3 <= results["TOTAL_VOLUME"] <= 200e3
