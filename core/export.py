@@ -14,11 +14,11 @@ neighbouring regions share their nodes and triangles in every format:
 ``.vtu``     ParaView: every interface face once, with ``region_a`` /
              ``region_b`` (the two regions, normal from a into b) and
              ``block_id`` cell data (meshio)
-``.msh``     gmsh 4.1: one surface entity per interface with a physical
-             surface (``block_3|air``, ``ground|air``, ...), one volume
-             entity per region bounded by its interfaces, with a physical
-             volume (``block_3``, ``ground``, ``air``), so a volume mesher
-             or solver can tag every boundary
+``.msh``     gmsh 4.1: a physical surface per interface (``block_3|air``,
+             ``ground|air``, ...) and a physical volume per region
+             (``block_3``, ``ground``, ``air``); entities are the connected
+             patches of the interfaces and the closed shells of the regions
+             they bound, so a volume mesher or solver can tag every boundary
 ===========  ==============================================================
 
 Coordinates are world coordinates (the CRS of the input). Files are
@@ -137,66 +137,89 @@ def _write_vtu(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
 
 
 def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
-    """gmsh 4.1 ASCII with the entity topology: interfaces bound the regions."""
-    pairs = np.sort(model.regions, axis=1)
-    # Faces against the outside of the domain bound only the region inside.
+    """gmsh 4.1 ASCII with the entity topology: interfaces bound the regions.
+
+    A gmsh entity must be connected, so every interface is split into its
+    connected patches and every region into its closed shells (one per
+    cluster of scattered data, see :mod:`core.clusters`); the physical groups
+    gather them back by name.
+    """
+    pairs = np.sort(model.regions, axis=1)  # faces stored from the lower region id into the higher
+    faces = model.quads.copy()
+    flip = model.regions[:, 0] > model.regions[:, 1]
+    faces[flip] = faces[flip, ::-1]
     interfaces, which = np.unique(pairs, axis=0, return_inverse=True)
     which = which.ravel()
+    # Surface entities: connected patches of each interface.
+    patch = np.empty(len(faces), dtype=np.int64)
+    patch_interface = []
+    for i in range(len(interfaces)):
+        sel = np.flatnonzero(which == i)
+        labels = _face_components(faces[sel], len(world))
+        patch[sel] = len(patch_interface) + labels
+        patch_interface.extend([i] * (int(labels.max()) + 1))
+    patch_interface = np.asarray(patch_interface)
+    # Volume entities: closed shells of each region, made of whole patches.
     regions = _regions(model)
-    volume_tag = {r: i + 1 for i, r in enumerate(regions)}
-    lines = ["$MeshFormat", "4.1 0 8", "$EndMeshFormat"]
-    # Physical groups: surfaces 1..S (one per interface), volumes 1..V.
+    shells = []  # (region, [signed patch tags])
+    for r in regions:
+        touching = np.flatnonzero((interfaces[patch_interface] == r).any(axis=1))
+        sel = np.flatnonzero(np.isin(patch, touching))
+        labels = _face_components(faces[sel], len(world))
+        for shell in range(int(labels.max()) + 1):
+            own = np.unique(patch[sel[labels == shell]])
+            sign = np.where(interfaces[patch_interface[own], 0] == r, 1, -1)  # normal out of r: +
+            shells.append((r, (sign * (own + 1)).tolist()))
+    physical_region = {r: i + 1 for i, r in enumerate(regions)}
     names = []
     for s, (ra, rb) in enumerate(interfaces, start=1):
         label = region_name(int(rb)) if ra == OUTSIDE_REGION else f"{region_name(int(ra))}|{region_name(int(rb))}"
         names.append(f'2 {s} "{label}"')
-    for r, v in volume_tag.items():
+    for r, v in physical_region.items():
         names.append(f'3 {v} "{region_name(r)}"')
-    lines += ["$PhysicalNames", str(len(names)), *names, "$EndPhysicalNames"]
-    # Entities: no points or curves; surfaces with their bounding box and
-    # physical tag; volumes bounded by signed surface tags (sign: the face
-    # normal points out of the volume for +, into it for -). Each interface's
-    # faces are stored with the normal from its lower region id into the higher.
-    entities = ["$Entities", f"0 0 {len(interfaces)} {len(volume_tag)}"]
-    for s, (ra, rb) in enumerate(interfaces, start=1):
-        sel = which == s - 1
-        box = world[model.quads[sel].ravel()]
-        lo, hi = box.min(axis=0), box.max(axis=0)
-        entities.append(f"{s} {lo[0]:.4f} {lo[1]:.4f} {lo[2]:.4f} {hi[0]:.4f} {hi[1]:.4f} {hi[2]:.4f} 1 {s} 0")
-    for r, v in volume_tag.items():
-        bounding = []
-        for s, (ra, rb) in enumerate(interfaces, start=1):
-            if ra == r:
-                bounding.append(s)      # normal from ra (this region) outwards
-            elif rb == r:
-                bounding.append(-s)
-        lo, hi = world.min(axis=0), world.max(axis=0)
-        entities.append(f"{v} {lo[0]:.4f} {lo[1]:.4f} {lo[2]:.4f} {hi[0]:.4f} {hi[1]:.4f} {hi[2]:.4f} "
-                        f"1 {v} {len(bounding)} " + " ".join(map(str, bounding)))
-    entities.append("$EndEntities")
-    lines += entities
-    # Orient every face from the lower region id into the higher one.
-    faces = model.quads.copy()
-    flip = model.regions[:, 0] > model.regions[:, 1]
-    faces[flip] = faces[flip, ::-1]
+    lines = ["$MeshFormat", "4.1 0 8", "$EndMeshFormat",
+             "$PhysicalNames", str(len(names)), *names, "$EndPhysicalNames",
+             "$Entities", f"0 0 {len(patch_interface)} {len(shells)}"]
+    for p, i in enumerate(patch_interface, start=1):
+        box = world[faces[patch == p - 1].ravel()]
+        lines.append(f"{p} {_box(box)} 1 {i + 1} 0")
+    for v, (r, bounding) in enumerate(shells, start=1):
+        box = world[faces[np.isin(patch, np.abs(bounding) - 1)].ravel()]
+        lines.append(f"{v} {_box(box)} 1 {physical_region[r]} {len(bounding)} " + " ".join(map(str, bounding)))
+    lines.append("$EndEntities")
     n_nodes = len(world)
     # All nodes in one block on the first surface entity: node tags are
     # global in gmsh, and each shared node is stored once.
-    node_lines = ["$Nodes", f"1 {n_nodes} 1 {n_nodes}", f"2 1 0 {n_nodes}"]
-    element_blocks = []
-    start = 1
-    for s in range(1, len(interfaces) + 1):
-        sel = faces[which == s - 1] + 1
-        tags = np.arange(start, start + len(sel))
-        element_blocks.append((s, np.column_stack([tags, sel])))
-        start += len(sel)
+    lines += ["$Nodes", f"1 {n_nodes} 1 {n_nodes}", f"2 1 0 {n_nodes}"]
+    order = np.argsort(patch, kind="stable")
+    bounds = np.searchsorted(patch[order], np.arange(len(patch_interface) + 1))
     with open(path, "w", encoding="ascii") as out:
-        out.write("\n".join(lines + node_lines) + "\n")
+        out.write("\n".join(lines) + "\n")
         np.savetxt(out, np.arange(1, n_nodes + 1), fmt="%d")
         np.savetxt(out, world, fmt="%.4f %.4f %.4f")
         out.write("$EndNodes\n$Elements\n")
-        out.write(f"{len(element_blocks)} {start - 1} 1 {start - 1}\n")
-        for s, rows in element_blocks:
-            out.write(f"2 {s} 2 {len(rows)}\n")
-            np.savetxt(out, rows, fmt="%d")
+        out.write(f"{len(patch_interface)} {len(faces)} 1 {len(faces)}\n")
+        for p in range(len(patch_interface)):
+            members = order[bounds[p]:bounds[p + 1]]
+            out.write(f"2 {p + 1} 2 {len(members)}\n")
+            np.savetxt(out, np.column_stack([members + 1, faces[members] + 1]), fmt="%d")
         out.write("$EndElements\n")
+
+
+def _box(points: np.ndarray) -> str:
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    return f"{lo[0]:.4f} {lo[1]:.4f} {lo[2]:.4f} {hi[0]:.4f} {hi[1]:.4f} {hi[2]:.4f}"
+
+
+def _face_components(faces: np.ndarray, n_nodes: int) -> np.ndarray:
+    """Component of every face, faces being connected through shared nodes."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rows = np.repeat(np.arange(len(faces)), faces.shape[1])
+    # Faces and nodes in one bipartite graph: faces sharing a node are connected.
+    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, len(faces) + faces.ravel())),
+                       shape=(len(faces) + n_nodes, len(faces) + n_nodes))
+    _, labels = connected_components(graph, directed=False)
+    _, compact = np.unique(labels[:len(faces)], return_inverse=True)
+    return compact.ravel()

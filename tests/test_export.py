@@ -113,10 +113,9 @@ def test_gmsh_meshes_the_zurich_stl(shared_data, tmp_path):
     stl = shared_data / "cityjson" / "zurich_subset_lod2_buildings.stl"
     if not stl.exists():
         pytest.skip("Zurich STL not in the shared data")
-    # The densest part of the subset (its buildings are scattered over 9 x 10 km).
-    extent = (2684219.0, 1246078.0, 2684719.0, 1247079.0)
-    zurich = reconstruct_mesh(stl, crs="EPSG:2056", params=ReconstructionParams(voxel_size=2.0, extent=extent))
-    assert len(zurich.blocks) >= 2
+    # 49 buildings scattered over 9 x 10 km: one grid (one ground, one air shell) per cluster.
+    zurich = reconstruct_mesh(stl, crs="EPSG:2056", params=ReconstructionParams(voxel_size=2.0))
+    assert len(zurich.blocks) >= 45
     counts, worst = gmsh_volume_mesh(zurich.write_mesh(tmp_path / "zurich.msh"))
     assert len(counts) == len(zurich.blocks) + 2
     assert all(n > 0 for n in counts.values()), counts
