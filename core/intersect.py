@@ -103,10 +103,14 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     positions = new.copy()
     moved = moved.copy()
     undone = 0
+    near = None  # after a round, only the neighbourhood of what was undone can still cross
     for _ in range(max_rounds):
         triangles, _ = best_split(positions, quads)
-        focus = np.flatnonzero(moved[triangles].any(axis=1))
-        pairs = crossing_triangles(positions, triangles, focus)
+        focus = moved[triangles].any(axis=1)
+        if near is not None:
+            centre = positions[triangles].mean(axis=1)
+            focus &= np.all((centre >= near[0]) & (centre <= near[1]), axis=1)
+        pairs = crossing_triangles(positions, triangles, np.flatnonzero(focus))
         if len(pairs) == 0:
             break
         culprits = np.unique(triangles[pairs.ravel()])
@@ -116,4 +120,7 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         positions[culprits] = old[culprits]
         moved[culprits] = False
         undone += len(culprits)
+        span = 4 * np.linalg.norm(np.ptp(positions[quads[0]], axis=0))  # a few faces around
+        near = (np.minimum(old[culprits], new[culprits]).min(axis=0) - span,
+                np.maximum(old[culprits], new[culprits]).max(axis=0) + span)
     return positions, moved, undone

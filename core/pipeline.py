@@ -345,10 +345,13 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 
+    peak_rss: dict[str, float] = {}
+
     def lap(name: str) -> None:
         nonlocal clock
         now = time.perf_counter()
         timings[name] = now - clock
+        peak_rss[name] = _peak_rss_mb()
         clock = now
 
     m = metres_per_unit(crs)
@@ -465,6 +468,10 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance)
     lap("measure")
     report(1.0, f"{len(table)} blocks")
+    stats["peak_rss_mb"] = peak_rss
+    stats["n_points"] = {"ground": int(len(ground)), "building": int(len(building))}
+    stats["n_voxels"] = int(grid.n_voxels)
+    stats["n_faces"] = int(len(surface.quads))
     return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface, mesh=mesh,
                           measures=measures, footprint_columns=columns, warnings=warnings,
                           timings=timings, stats=stats)
@@ -557,6 +564,15 @@ def _finite(points: np.ndarray, what: str, warnings: list[str]) -> np.ndarray:
         warnings.append(f"Ignored {int((~ok).sum())} {what} points with non-finite coordinates.")
         points = points[ok]
     return points
+
+
+def _peak_rss_mb() -> float:
+    """Peak resident memory of this process so far (MB; NaN where unknown)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on Windows
+        return float("nan")
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def _reporter(progress: Progress | None, is_cancelled: CancelCheck | None) -> Progress:
