@@ -60,7 +60,7 @@ def _field_types():
         return {"int": QMetaType.Type.Int, "long": QMetaType.Type.LongLong, "double": QMetaType.Type.Double}
     from qgis.PyQt.QtCore import QVariant
 
-    return {"int": QVariant.Int, "long": QVariant.LongLong, "double": QVariant.Double}
+    return {"int": QVariant.Type.Int, "long": QVariant.Type.LongLong, "double": QVariant.Type.Double}
 
 
 _FIELD_TYPES = _field_types()
