@@ -343,9 +343,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     report = _reporter(progress, is_cancelled)
     warnings = list(warnings or [])
     timings: dict[str, float] = {}
-    clock = time.perf_counter()
-
     peak_rss: dict[str, float] = {}
+    clock = time.perf_counter()
 
     def lap(name: str) -> None:
         nonlocal clock
@@ -440,13 +439,13 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         nodes, stats["smoothing"] = smooth(surface, roles, params.smoothing_iterations,
                                            params.quality_threshold, is_cancelled)
         lap("smooth")
-    # Ground data for the ground and the base of the blocks: the ground points,
-    # and the interpolated level where the ground was not seen (under roofs).
-    xs, ys = grid.column_centres()
-    ui, uj = np.nonzero(~level.observed)
-    ground_data = np.concatenate([ground, np.column_stack([xs[ui], ys[uj], level.z[ui, uj]])])
     if params.project:
         report(0.85, "Projecting nodes onto the data")
+        # Ground data for the ground and the base of the blocks: the ground points,
+        # and the interpolated level where the ground was not seen (under roofs).
+        xs, ys = grid.column_centres()
+        ui, uj = np.nonzero(~level.observed)
+        ground_data = np.concatenate([ground, np.column_stack([xs[ui], ys[uj], level.z[ui, uj]])])
         base = roles.on_block & roles.on_ground & ~roles.foot
         on_buildings = roles.on_block & ~base
         on_terrain = (roles.on_ground & ~roles.on_block) | base
