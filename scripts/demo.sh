@@ -34,8 +34,11 @@ run() {
 }
 
 run pointcloud reconstructfrompointcloud "INPUT=$out/data/district.laz" VOXEL_SIZE=1.0
+# The district's STL is not clipped at the district's edge (its border building runs past it):
+# the extent clips it like the point cloud.
+extent=$(.venv/bin/python -c 'import json,sys; x0,y0,x1,y1=json.load(open(sys.argv[1]))["extent"]; print(f"{x0},{x1},{y0},{y1} [EPSG:2056]")' "$out/data/truth.json")
 run mesh reconstructfrommesh "INPUT=$out/data/district.stl" "GROUND=$out/data/district_ground.stl" \
-  CRS=EPSG:2056 VOXEL_SIZE=1.0
+  CRS=EPSG:2056 VOXEL_SIZE=1.0 "EXTENT=$extent"
 echo "== Done. In demo-output/:"
 echo "   pointcloud.gpkg, mesh.gpkg   layers blocks, footprints, ground (open them in QGIS)"
 echo "   pointcloud.msh, mesh.msh     gmsh meshes: a physical surface per interface, a physical volume per region"

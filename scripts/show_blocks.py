@@ -88,18 +88,22 @@ def main(argv=None):
             truth = json.load(f)["blocks"]
     matches = match_truth(footprints, truth) if truth else [None] * len(footprints)
 
-    header = f"{'block':>5} {'height':>7} {'footprint':>9} {'volume':>9}"
+    header = f"{'block':>5} {'height':>7} {'footprint':>9} {'volume':>9} {'mesh vol':>9}"
     if truth:
         header += f"   {'truth block':<18} {'height':>7} {'footprint':>9} {'volume':>9} {'vol err':>7}"
     print(header)
-    print(f"{'':>5} {'m':>7} {'m²':>9} {'m³':>9}" + (f"   {'':<18} {'m':>7} {'m²':>9} {'m³':>9} {'%':>7}" if truth else ""))
+    print(f"{'':>5} {'m':>7} {'m²':>9} {'m³':>9} {'m³':>9}"
+          + (f"   {'':<18} {'m':>7} {'m²':>9} {'m³':>9} {'%':>7}" if truth else ""))
     for row, t in zip(footprints, matches):
-        line = f"{row['block_id']:>5} {_fmt(row['height'], 7)} {_fmt(row['footprint_area'], 9)} {_fmt(row['volume'], 9)}"
+        line = (f"{row['block_id']:>5} {_fmt(row['height'], 7)} {_fmt(row['footprint_area'], 9)}"
+                f" {_fmt(row['volume'], 9)} {_fmt(row.get('mesh_volume'), 9)}")
         if truth:
             if t is None:
                 line += f"   {'(no match)':<18}"
             else:
-                err = 100.0 * (row["volume"] - t["volume"]) / t["volume"] if t["volume"] else float("nan")
+                # The final (smoothed, projected) volume against the truth.
+                value = row.get("mesh_volume") or row["volume"]
+                err = 100.0 * (value - t["volume"]) / t["volume"] if t["volume"] else float("nan")
                 line += (f"   {t['name']:<18} {_fmt(t['height'], 7)} {_fmt(t['footprint_area'], 9)}"
                          f" {_fmt(t['volume'], 9)} {_fmt(err, 7)}")
         print(line)
