@@ -8,7 +8,8 @@ from qgis_helpers import gpkg_outputs
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 ALGORITHMS = {"urbanvox:reconstructfrompointcloud", "urbanvox:reconstructfrommesh"}
-SHARED = ["VOXEL_SIZE", "MIN_HEIGHT", "MIN_FOOTPRINT", "MIN_VOLUME", "OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS"]
+SHARED = ["VOXEL_SIZE", "MIN_HEIGHT", "MIN_FOOTPRINT", "MIN_VOLUME", "EXTENT", "SMOOTHING_ITERATIONS", "PROJECT",
+          "QUALITY_THRESHOLD", "OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "OUTPUT_GROUND", "OUTPUT_MESH"]
 
 
 def algorithm(alg_id):
@@ -58,6 +59,8 @@ def test_unload_removes_the_provider_and_init_restores_it(urbanvox_plugin):
 
 @pytest.mark.parametrize("alg_id", sorted(ALGORITHMS))
 def test_shared_parameters_and_outputs(urbanvox_plugin, alg_id):
+    from qgis.core import QgsProcessingParameterDefinition
+
     alg = algorithm(alg_id)
     names = [p.name() for p in alg.parameterDefinitions()]
     assert names[0] == "INPUT" and "CRS" in names
@@ -67,7 +70,14 @@ def test_shared_parameters_and_outputs(urbanvox_plugin, alg_id):
     assert alg.parameterDefinition("MIN_HEIGHT").defaultValue() == 2.5
     assert alg.parameterDefinition("MIN_FOOTPRINT").defaultValue() == 10.0
     assert alg.parameterDefinition("MIN_VOLUME").defaultValue() == 20.0
-    assert {o.name() for o in alg.outputDefinitions()} >= {"OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "BLOCK_COUNT", "TOTAL_VOLUME"}
+    assert alg.parameterDefinition("SMOOTHING_ITERATIONS").defaultValue() == 3
+    assert alg.parameterDefinition("PROJECT").defaultValue() is True
+    assert alg.parameterDefinition("QUALITY_THRESHOLD").defaultValue() == 0.2
+    for optional in ("EXTENT", "OUTPUT_GROUND", "OUTPUT_MESH"):
+        assert alg.parameterDefinition(optional).flags() & QgsProcessingParameterDefinition.Flag.FlagOptional
+    assert {o.name() for o in alg.outputDefinitions()} >= {"OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "OUTPUT_GROUND",
+                                                           "OUTPUT_MESH", "OUTPUT_PREVIEW", "BLOCK_COUNT",
+                                                           "TOTAL_VOLUME"}
     assert alg.outputDefinition("BLOCK_COUNT").type() == "outputNumber"
 
 
