@@ -33,6 +33,7 @@ from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
 from .. import ICON_PATH
+from ..styles import style_blocks, style_footprints, style_ground, style_on_load
 from ..compat import (FLAG_ADVANCED, MULTIPOLYGON_Z, NUMBER_DOUBLE, NUMBER_INTEGER, POLYGON, VECTOR_POLYGON,
                       make_field)
 
@@ -356,6 +357,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         count = int(result.summary["block_count"])
         volume = float(result.summary["total_volume"])
         feedback.pushInfo(f"{count} building blocks, total volume {volume:.1f} m³.")
+        style_on_load(context, sinks[self.OUTPUT_BLOCKS][1], style_blocks)
+        style_on_load(context, sinks[self.OUTPUT_FOOTPRINTS][1], style_footprints)
+        style_on_load(context, outputs.get(self.OUTPUT_GROUND), style_ground)
         outputs.update({
             self.OUTPUT_BLOCKS: sinks[self.OUTPUT_BLOCKS][1],
             self.OUTPUT_FOOTPRINTS: sinks[self.OUTPUT_FOOTPRINTS][1],

@@ -196,3 +196,33 @@ def test_smoothed_outputs_ground_layer_mesh_file_and_preview(processing, distric
     assert groups.count("ground") == 1 and groups.count("air") == 1 and len(groups) == len(blocks) + 2
     preview = results["OUTPUT_PREVIEW"]
     assert preview.endswith(".png") and open(preview, "rb").read(4) == b"\x89PNG"
+
+
+def test_outputs_load_styled_by_height_with_a_3d_renderer(processing, district, tmp_path):
+    from qgis.core import QgsGraduatedSymbolRenderer, QgsProcessingContext, QgsProject
+
+    from urbanvox.processing_provider.styles import style_blocks, style_footprints, style_ground
+
+    gpkg = tmp_path / "styled.gpkg"
+    context = QgsProcessingContext()
+    context.setProject(QgsProject.instance())
+    results = processing.run(
+        "urbanvox:reconstructfrompointcloud",
+        {"INPUT": str(district.laz), "VOXEL_SIZE": 4.0, "SMOOTHING_ITERATIONS": 0, "PROJECT": False,
+         **gpkg_outputs(gpkg), "OUTPUT_GROUND": gpkg_sink(gpkg, "ground")},
+        context=context,
+    )
+    assert results["BLOCK_COUNT"] > 0
+    blocks, _ = read_layer(gpkg, "blocks")
+    style_blocks(blocks)
+    renderer = blocks.renderer()
+    assert isinstance(renderer, QgsGraduatedSymbolRenderer) and renderer.classAttribute() == "height"
+    assert len(renderer.ranges()) == 5
+    assert renderer.ranges()[-1].upperValue() == pytest.approx(max(f["height"] for f in blocks.getFeatures()))
+    assert blocks.renderer3D() is not None
+    ground, _ = read_layer(gpkg, "ground")
+    style_ground(ground)
+    assert ground.renderer3D() is not None
+    footprints, _ = read_layer(gpkg, "footprints")
+    style_footprints(footprints)
+    assert footprints.renderer().symbol().color().alpha() < 255
