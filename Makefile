@@ -17,12 +17,13 @@ SYSTEM_STAMP := .build/system.stamp
 VENV_STAMP := $(VENV)/.urbanvox-installed
 PLUGIN_STAMP := .qgis/.urbanvox-enabled
 
-.PHONY: help setup demo test qgis-list clean distclean
+.PHONY: help setup demo test package qgis-list clean distclean
 
 help:
 	@echo "make demo       set up (QGIS, .venv, plugin) and run both algorithms on a synthetic district"
 	@echo "make test       set up and run the whole test suite (core + QGIS)"
 	@echo "make setup      only the setup: QGIS from apt, .venv with pinned deps, plugin enabled in .qgis/"
+	@echo "make package    build dist/urbanvox-VERSION.zip, installable with Plugins > Install from ZIP"
 	@echo "make qgis-list  list the urbanvox algorithms as qgis_process sees them"
 	@echo "make clean      remove .build, .qgis, demo-output; make distclean also removes .venv"
 
@@ -54,11 +55,14 @@ demo: setup
 test: setup
 	$(ENV) URBANVOX_REQUIRE_QGIS=1 $(PYTHON) -m pytest tests $(PYTEST_ARGS)
 
+package:
+	$(SYSTEM_PYTHON) scripts/package.py
+
 qgis-list: setup
 	scripts/qgis-process list 2>/dev/null | sed -n '/^urbanvox/,/^$$/p'
 
 clean:
-	rm -rf .build .qgis demo-output .pytest_cache
+	rm -rf .build .qgis demo-output .pytest_cache dist
 
 distclean: clean
 	rm -rf $(VENV) constraints.txt
