@@ -238,6 +238,46 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         self.addOutput(QgsProcessingOutputFile(self.OUTPUT_PREVIEW, self.tr("Preview picture (PNG)")))
         self.addOutput(QgsProcessingOutputNumber(self.BLOCK_COUNT, self.tr("Number of building blocks")))
         self.addOutput(QgsProcessingOutputNumber(self.TOTAL_VOLUME, self.tr("Total volume of the blocks (m³)")))
+        for name, text in self.PARAMETER_HELP.items():
+            definition = self.parameterDefinition(name)
+            if definition is not None:
+                definition.setHelp(self.tr(text))
+
+    #: Tooltip help of every parameter (shown in the dialog and by ``qgis_process help``).
+    PARAMETER_HELP = {
+        "INPUT": "The input file.",
+        "CRS": "Coordinate reference system of the input, projected (metres or feet).",
+        "GROUND_CLASSES": "ASPRS classification codes of the ground points, comma-separated (standard: 2).",
+        "BUILDING_CLASSES": "Classification codes of the building points, comma-separated (standard: 6); "
+                            "vegetation, noise and other codes are ignored.",
+        "GROUND": "Optional terrain mesh; without it the ground passes through the bottom of every building part.",
+        "VOXEL_SIZE": "Edge of a voxel in metres. Details smaller than about a voxel disappear; halving it "
+                      "costs about 8 times the memory and time.",
+        "MIN_HEIGHT": "Blocks lower than this (m, top above the ground under them) are dropped.",
+        "MIN_FOOTPRINT": "Blocks covering less ground than this (m²) are dropped.",
+        "MIN_VOLUME": "Blocks smaller than this (m³) are dropped.",
+        "EXTENT": "The domain: data outside is ignored, and blocks crossing its edge are closed on it. "
+                  "Default: the extent of the data. Give it in the data's CRS.",
+        "SMOOTHING_ITERATIONS": "Vertex-only Catmull-Clark passes over the voxel surfaces (the paper uses 3); "
+                                "0 keeps the voxel faces.",
+        "PROJECT": "Move the smoothed nodes onto moving-least-squares planes of the data, along their normals.",
+        "QUALITY_THRESHOLD": "Smoothing and projection moves that would leave a face of lower quality "
+                             "(inradius / longest edge, 1 for an equilateral triangle, 0.72 for a voxel face) "
+                             "are refused.",
+        "OUTPUT_BLOCKS": "One feature per building block: its closed 3-D surface, with height, areas, volumes, "
+                         "mesh quality and distance to the data.",
+        "OUTPUT_FOOTPRINTS": "One polygon per building block: the ground it covers, with the same fields.",
+        "OUTPUT_GROUND": "The terrain surface, in tiles of 64 x 64 voxels.",
+        "OUTPUT_MESH": "Closed, conforming surfaces of every block, the ground and the air, for a finite-element "
+                       "or CFD mesher: .msh (gmsh, physical groups), .vtu, .obj, .stl or .ply. "
+                       "A PNG picture is written beside it.",
+    }
+
+    def helpUrl(self):  # noqa: N802 (QGIS API name)
+        from qgis.PyQt.QtCore import QUrl
+
+        readme = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(__file__))), "README.md")
+        return QUrl.fromLocalFile(readme).toString() + "#use-in-qgis"
 
     def crsArgument(self, parameters, context):  # noqa: N802
         """The CRS parameter as the core wants it: an authority id, WKT, or None when not set."""

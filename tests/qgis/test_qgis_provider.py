@@ -135,3 +135,12 @@ def test_field_values_are_plain_python_numbers(urbanvox_plugin):
     ]
     assert values[len(BLOCK_FIELDS):] == [2.5, None, 7]
     assert field_kinds([]) == list(BLOCK_FIELDS)
+
+
+@pytest.mark.parametrize("alg_id", sorted(ALGORITHMS))
+def test_every_parameter_has_help_and_the_algorithm_a_help_url(urbanvox_plugin, alg_id):
+    alg = algorithm(alg_id)
+    for definition in alg.parameterDefinitions():
+        assert len(definition.help()) > 10, definition.name()
+    assert alg.helpUrl().startswith("file://") and alg.helpUrl().endswith("README.md#use-in-qgis")
+    assert "Catmull-Clark" in alg.shortHelpString()
