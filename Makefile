@@ -43,7 +43,13 @@ $(VENV_STAMP): requirements.txt requirements-dev.txt constraints.txt | $(SYSTEM_
 	$(PYTHON) -c 'import qgis.core, laspy, lazrs, trimesh, shapely, pyproj, scipy, meshio, numpy, pytest; print("venv ok: numpy", numpy.__version__, "laspy", laspy.__version__, "trimesh", trimesh.__version__)'
 	touch $@
 
-$(PLUGIN_STAMP): metadata.txt scripts/env.sh | $(SYSTEM_STAMP)
+TRANSLATIONS := $(patsubst %.ts,%.qm,$(wildcard i18n/*.ts))
+
+# Compiled translations, loaded by the plugin for QGIS's locale.
+i18n/%.qm: i18n/%.ts | $(SYSTEM_STAMP)
+	lrelease -silent $< -qm $@
+
+$(PLUGIN_STAMP): metadata.txt scripts/env.sh $(TRANSLATIONS) | $(SYSTEM_STAMP)
 	scripts/qgis-process plugins enable urbanvox >/dev/null 2>&1 || true
 	scripts/qgis-process plugins 2>/dev/null | grep -q '^\* urbanvox$$' \
 	  || { echo "urbanvox is not loaded by qgis_process; see: scripts/qgis-process plugins" >&2; exit 1; }
@@ -55,7 +61,7 @@ demo: setup
 test: setup
 	$(ENV) URBANVOX_REQUIRE_QGIS=1 $(PYTHON) -m pytest tests $(PYTEST_ARGS)
 
-package:
+package: $(TRANSLATIONS)
 	$(SYSTEM_PYTHON) scripts/package.py
 
 qgis-list: setup

@@ -11,6 +11,7 @@ class UrbanvoxPlugin:
     def __init__(self, iface):
         self.iface = iface  # None under qgis_process
         self.provider = None
+        self.translator = load_translation()
 
     def initProcessing(self):  # noqa: N802 (QGIS API name)
         """Called by qgis_process (``hasProcessingProvider=yes``) and by :meth:`initGui`."""
@@ -33,6 +34,27 @@ class UrbanvoxPlugin:
 
         QgsApplication.processingRegistry().removeProvider(self.provider)
         self.provider = None
+
+
+def load_translation(locale=None):
+    """Install the compiled translation of QGIS's locale (i18n/urbanvox_<lang>.qm), if there is one.
+
+    Returns the translator (keep a reference: Qt does not own it), or None.
+    """
+    import os
+
+    from qgis.core import QgsApplication
+    from qgis.PyQt.QtCore import QCoreApplication, QTranslator
+
+    language = (locale or QgsApplication.locale() or "en")[:2]
+    path = os.path.join(os.path.dirname(__file__), "i18n", f"urbanvox_{language}.qm")
+    if not os.path.exists(path):
+        return None
+    translator = QTranslator()
+    if not translator.load(path):
+        return None
+    QCoreApplication.installTranslator(translator)
+    return translator
 
 
 def classFactory(iface):  # noqa: N802 (QGIS API name)

@@ -3,7 +3,7 @@
 # distribution (Debian/Ubuntu), only when something is missing. Uses sudo when not root.
 set -euo pipefail
 
-PACKAGES=(qgis python3-qgis qgis-providers python3-venv python3-pip xvfb)
+PACKAGES=(qgis python3-qgis qgis-providers python3-venv python3-pip xvfb qttools5-dev-tools)
 
 missing=()
 command -v qgis_process.bin >/dev/null 2>&1 || missing+=(qgis_process.bin)
@@ -12,6 +12,7 @@ command -v qgis_process.bin >/dev/null 2>&1 || missing+=(qgis_process.bin)
   || missing+=(python3-qgis)
 /usr/bin/python3 -c 'import ensurepip' >/dev/null 2>&1 || missing+=(python3-venv)
 command -v Xvfb >/dev/null 2>&1 || missing+=(xvfb)
+command -v lrelease >/dev/null 2>&1 || missing+=(lrelease)
 
 if [ ${#missing[@]} -eq 0 ]; then
   exit 0

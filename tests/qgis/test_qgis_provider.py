@@ -144,3 +144,33 @@ def test_every_parameter_has_help_and_the_algorithm_a_help_url(urbanvox_plugin, 
         assert len(definition.help()) > 10, definition.name()
     assert alg.helpUrl().startswith("file://") and alg.helpUrl().endswith("README.md#use-in-qgis")
     assert "Catmull-Clark" in alg.shortHelpString()
+
+
+def test_french_qgis_shows_translated_names(qgis_process):
+    """QGIS in French (the locale of the environment) lists the algorithms in French."""
+    import os
+    import subprocess
+
+    env = {**os.environ, "LANG": "fr_FR.UTF-8", "LC_ALL": "fr_FR.UTF-8", "LANGUAGE": "fr"}
+    listed = subprocess.run([str(REPO_ROOT / "scripts" / "qgis-process"), "list"], env=env,
+                            capture_output=True, text=True, timeout=300)
+    assert "Reconstruire les îlots bâtis à partir d'un nuage de points" in listed.stdout, listed.stdout[-2000:]
+
+
+@pytest.mark.parametrize("language, name", [("fr", "Reconstruire les îlots bâtis à partir d'un maillage"),
+                                            ("de", "Gebäudeblöcke aus einem Netz rekonstruieren")])
+def test_every_string_is_translated(urbanvox_plugin, language, name):
+    import xml.etree.ElementTree as ET
+
+    from qgis.PyQt.QtCore import QCoreApplication
+
+    ts = ET.parse(REPO_ROOT / "i18n" / f"urbanvox_{language}.ts")
+    assert not [m for m in ts.iter("translation") if m.get("type") == "unfinished" or not m.text]
+    import urbanvox
+
+    translator = urbanvox.load_translation(language)
+    try:
+        assert translator is not None
+        assert algorithm("urbanvox:reconstructfrommesh").displayName() == name
+    finally:
+        QCoreApplication.removeTranslator(translator)

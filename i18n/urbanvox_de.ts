@@ -1,0 +1,191 @@
+<?xml version="1.0" encoding="utf-8"?>
+<!DOCTYPE TS>
+<TS version="2.1" language="de">
+  <context>
+    <name>urbanvox</name>
+    <message>
+      <source>urbanvox: voxel building blocks from point clouds and meshes</source>
+      <translation>urbanvox: Voxel-Gebäudeblöcke aus Punktwolken und Netzen</translation>
+    </message>
+    <message>
+      <source>Point cloud (LAS/LAZ)</source>
+      <translation>Punktwolke (LAS/LAZ)</translation>
+    </message>
+    <message>
+      <source>CRS of the points (default: from the file header)</source>
+      <translation>KBS der Punkte (Standard: aus dem Dateikopf)</translation>
+    </message>
+    <message>
+      <source>Ground classes (comma-separated)</source>
+      <translation>Bodenklassen (durch Kommas getrennt)</translation>
+    </message>
+    <message>
+      <source>Building classes (comma-separated)</source>
+      <translation>Gebäudeklassen (durch Kommas getrennt)</translation>
+    </message>
+    <message>
+      <source>Voxel size (m)</source>
+      <translation>Voxelgröße (m)</translation>
+    </message>
+    <message>
+      <source>Minimum block height (m)</source>
+      <translation>Minimale Blockhöhe (m)</translation>
+    </message>
+    <message>
+      <source>Minimum block footprint (m²)</source>
+      <translation>Minimale Blockgrundfläche (m²)</translation>
+    </message>
+    <message>
+      <source>Minimum block volume (m³)</source>
+      <translation>Minimales Blockvolumen (m³)</translation>
+    </message>
+    <message>
+      <source>Domain extent (default: the data's)</source>
+      <translation>Ausdehnung des Gebiets (Standard: die der Daten)</translation>
+    </message>
+    <message>
+      <source>Smoothing passes (Catmull-Clark)</source>
+      <translation>Glättungsdurchgänge (Catmull-Clark)</translation>
+    </message>
+    <message>
+      <source>Project the smoothed surfaces onto the data</source>
+      <translation>Geglättete Flächen auf die Daten projizieren</translation>
+    </message>
+    <message>
+      <source>Minimum face quality (inradius / longest edge, 1 = equilateral)</source>
+      <translation>Minimale Flächenqualität (Inkreisradius / längste Kante, 1 = gleichseitig)</translation>
+    </message>
+    <message>
+      <source>Building blocks (3D surfaces)</source>
+      <translation>Gebäudeblöcke (3D-Flächen)</translation>
+    </message>
+    <message>
+      <source>Building footprints</source>
+      <translation>Grundrisse der Gebäudeblöcke</translation>
+    </message>
+    <message>
+      <source>Ground surface</source>
+      <translation>Geländeoberfläche</translation>
+    </message>
+    <message>
+      <source>Conforming mesh file (blocks, ground, air)</source>
+      <translation>Konformes Netz als Datei (Blöcke, Boden, Luft)</translation>
+    </message>
+    <message>
+      <source>gmsh (*.msh);;VTK unstructured grid (*.vtu);;Wavefront OBJ (*.obj);;STL, one solid per region (*.stl);;PLY (*.ply)</source>
+      <translation>gmsh (*.msh);;VTK-Gitter (*.vtu);;Wavefront OBJ (*.obj);;STL, ein Körper je Region (*.stl);;PLY (*.ply)</translation>
+    </message>
+    <message>
+      <source>Preview picture (PNG)</source>
+      <translation>Vorschaubild (PNG)</translation>
+    </message>
+    <message>
+      <source>Number of building blocks</source>
+      <translation>Anzahl der Gebäudeblöcke</translation>
+    </message>
+    <message>
+      <source>Total volume of the blocks (m³)</source>
+      <translation>Gesamtvolumen der Blöcke (m³)</translation>
+    </message>
+    <message>
+      <source>The input file.</source>
+      <translation>Die Eingabedatei.</translation>
+    </message>
+    <message>
+      <source>Coordinate reference system of the input, projected (metres or feet).</source>
+      <translation>Koordinatenbezugssystem der Eingabe, projiziert (Meter oder Fuß).</translation>
+    </message>
+    <message>
+      <source>ASPRS classification codes of the ground points, comma-separated (standard: 2).</source>
+      <translation>ASPRS-Klassifizierungscodes der Bodenpunkte, durch Kommas getrennt (Standard: 2).</translation>
+    </message>
+    <message>
+      <source>Classification codes of the building points, comma-separated (standard: 6); vegetation, noise and other codes are ignored.</source>
+      <translation>Klassifizierungscodes der Gebäudepunkte, durch Kommas getrennt (Standard: 6); Vegetation, Rauschen und andere Codes werden ignoriert.</translation>
+    </message>
+    <message>
+      <source>Edge of a voxel in metres. Details smaller than about a voxel disappear; halving it costs about 8 times the memory and time.</source>
+      <translation>Kantenlänge eines Voxels in Metern. Details kleiner als etwa ein Voxel verschwinden; eine Halbierung kostet etwa das 8-Fache an Speicher und Zeit.</translation>
+    </message>
+    <message>
+      <source>Blocks lower than this (m, top above the ground under them) are dropped.</source>
+      <translation>Blöcke, die niedriger sind (m, Oberkante über dem Boden darunter), werden verworfen.</translation>
+    </message>
+    <message>
+      <source>Blocks covering less ground than this (m²) are dropped.</source>
+      <translation>Blöcke mit weniger Grundfläche (m²) werden verworfen.</translation>
+    </message>
+    <message>
+      <source>Blocks smaller than this (m³) are dropped.</source>
+      <translation>Blöcke mit kleinerem Volumen (m³) werden verworfen.</translation>
+    </message>
+    <message>
+      <source>The domain: data outside is ignored, and blocks crossing its edge are closed on it. Default: the extent of the data. Give it in the data's CRS.</source>
+      <translation>Das Gebiet: Daten außerhalb werden ignoriert, Blöcke über seinen Rand werden dort geschlossen. Standard: die Ausdehnung der Daten. Im KBS der Daten angeben.</translation>
+    </message>
+    <message>
+      <source>Vertex-only Catmull-Clark passes over the voxel surfaces (the paper uses 3); 0 keeps the voxel faces.</source>
+      <translation>Catmull-Clark-Durchgänge nur über die Knoten der Voxelflächen (der Artikel verwendet 3); 0 behält die Voxelflächen.</translation>
+    </message>
+    <message>
+      <source>Move the smoothed nodes onto moving-least-squares planes of the data, along their normals.</source>
+      <translation>Die geglätteten Knoten entlang ihrer Normalen auf gleitende Kleinste-Quadrate-Ebenen der Daten verschieben.</translation>
+    </message>
+    <message>
+      <source>Smoothing and projection moves that would leave a face of lower quality (inradius / longest edge, 1 for an equilateral triangle, 0.72 for a voxel face) are refused.</source>
+      <translation>Glättungs- und Projektionsschritte, die eine Fläche geringerer Qualität hinterlassen würden (Inkreisradius / längste Kante, 1 für ein gleichseitiges Dreieck, 0,72 für eine Voxelfläche), werden abgelehnt.</translation>
+    </message>
+    <message>
+      <source>One feature per building block: its closed 3-D surface, with height, areas, volumes, mesh quality and distance to the data.</source>
+      <translation>Ein Objekt je Gebäudeblock: seine geschlossene 3D-Oberfläche, mit Höhe, Flächen, Volumen, Netzqualität und Abstand zu den Daten.</translation>
+    </message>
+    <message>
+      <source>One polygon per building block: the ground it covers, with the same fields.</source>
+      <translation>Ein Polygon je Gebäudeblock: der Boden, den er bedeckt, mit denselben Feldern.</translation>
+    </message>
+    <message>
+      <source>The terrain surface, in tiles of 64 x 64 voxels.</source>
+      <translation>Die Geländeoberfläche, in Kacheln von 64 x 64 Voxeln.</translation>
+    </message>
+    <message>
+      <source>Closed, conforming surfaces of every block, the ground and the air, for a finite-element or CFD mesher: .msh (gmsh, physical groups), .vtu, .obj, .stl or .ply. A PNG picture is written beside it.</source>
+      <translation>Geschlossene, konforme Oberflächen jedes Blocks, des Bodens und der Luft für einen Finite-Elemente- oder CFD-Vernetzer: .msh (gmsh, physikalische Gruppen), .vtu, .obj, .stl oder .ply. Daneben wird ein PNG-Bild geschrieben.</translation>
+    </message>
+    <message>
+      <source>Building mesh (STL/OBJ/PLY/OFF)</source>
+      <translation>Gebäudenetz (STL/OBJ/PLY/OFF)</translation>
+    </message>
+    <message>
+      <source>Ground mesh</source>
+      <translation>Geländenetz</translation>
+    </message>
+    <message>
+      <source>CRS of the mesh coordinates</source>
+      <translation>KBS der Netzkoordinaten</translation>
+    </message>
+    <message>
+      <source>Optional terrain mesh; without it the ground passes through the bottom of every building part.</source>
+      <translation>Optionales Geländenetz; ohne es verläuft der Boden durch die Unterkante jedes Gebäudeteils.</translation>
+    </message>
+    <message>
+      <source>Reconstruct building blocks from mesh</source>
+      <translation>Gebäudeblöcke aus einem Netz rekonstruieren</translation>
+    </message>
+    <message>
+      <source>&lt;p&gt;Voxel building blocks from a triangle mesh of buildings, e.g. an STL exported from CityGML (also OBJ, PLY, OFF). Triangles may overlap, intersect or leave gaps: they are sampled into points no farther apart than 10% of a voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Ground mesh&lt;/b&gt; [optional]: a mesh of the terrain; without it the ground is taken under the lowest building points.&lt;br&gt;&lt;b&gt;CRS&lt;/b&gt;: required, since STL and most mesh formats carry none.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Voxel-Gebäudeblöcke aus einem Dreiecksnetz von Gebäuden, z. B. einem aus CityGML exportierten STL (auch OBJ, PLY, OFF). Dreiecke dürfen sich überlappen, schneiden oder Lücken lassen: sie werden in Punkte mit höchstens 10 % eines Voxels Abstand abgetastet.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Geländenetz&lt;/b&gt; [optional]: ein Netz des Geländes; ohne es wird der Boden unter den tiefsten Gebäudepunkten angenommen.&lt;br&gt;&lt;b&gt;KBS&lt;/b&gt;: erforderlich, da STL und die meisten Netzformate keines tragen.&lt;/p&gt;</translation>
+    </message>
+    <message>
+      <source>&lt;p&gt;The data are put in a grid of cubic voxels; voxels are sorted into ground, building and air (air is flood-filled from above, so closed courtyards and inner surfaces are handled); face-connected building voxels form a building block. Blocks lower, smaller or lighter than the thresholds are dropped.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Voxel size&lt;/b&gt;: edge of a voxel in metres; halving it multiplies memory and time by ~8.&lt;br&gt;&lt;b&gt;Minimum height / footprint / volume&lt;/b&gt;: blocks below any of them are discarded.&lt;br&gt;&lt;b&gt;Smoothing passes&lt;/b&gt;: vertex-only Catmull-Clark passes (paper: 3); nodes at the foot of the walls keep their height. &lt;b&gt;Project&lt;/b&gt;: move the smoothed nodes onto moving-least-squares planes of the data. &lt;b&gt;Minimum face quality&lt;/b&gt;: a smoothing or projection move that would leave a worse face is refused (a voxel face scores 0.72).&lt;br&gt;&lt;b&gt;Domain extent&lt;/b&gt;: clip the data; blocks crossing it are closed on its sides.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Blocks&lt;/b&gt;: one MultiPolygonZ per block, its closed outer surface (smoothed and projected). &lt;b&gt;Footprints&lt;/b&gt;: one polygon per block (the columns it covers). Both have the fields block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) and n_voxels of the voxel model, then mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist and max_dist (m, nodes to the data) of the final mesh. &lt;b&gt;Ground surface&lt;/b&gt;: the terrain, in tiles. &lt;b&gt;Mesh file&lt;/b&gt;: closed, conforming surfaces of every block, the ground and the air; the extension picks the format (.msh with physical groups per interface and per region, .vtu, .obj, .stl, .ply); a PNG preview is written beside it.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Die Daten werden in ein Gitter würfelförmiger Voxel gelegt; die Voxel werden in Boden, Gebäude und Luft eingeteilt (die Luft wird von oben geflutet, so werden geschlossene Innenhöfe und innere Flächen behandelt); über Flächen verbundene Gebäudevoxel bilden einen Block. Blöcke unter den Schwellenwerten werden verworfen.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Voxelgröße&lt;/b&gt;: Kante eines Voxels in Metern; eine Halbierung vervielfacht Speicher und Zeit um ~8.&lt;br&gt;&lt;b&gt;Minimale Höhe / Grundfläche / Volumen&lt;/b&gt;: Blöcke unter einem davon werden verworfen.&lt;br&gt;&lt;b&gt;Glättungsdurchgänge&lt;/b&gt;: Catmull-Clark nur über die Knoten (Artikel: 3); Knoten am Fuß der Wände behalten ihre Höhe. &lt;b&gt;Projizieren&lt;/b&gt;: die geglätteten Knoten auf gleitende Kleinste-Quadrate-Ebenen der Daten verschieben. &lt;b&gt;Minimale Flächenqualität&lt;/b&gt;: ein Schritt, der eine schlechtere Fläche hinterließe, wird abgelehnt (eine Voxelfläche hat 0,72).&lt;br&gt;&lt;b&gt;Gebietsausdehnung&lt;/b&gt;: schneidet die Daten zu; Blöcke über den Rand werden an seinen Seiten geschlossen.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Blöcke&lt;/b&gt;: ein MultiPolygonZ je Block, seine geschlossene Außenfläche (geglättet und projiziert). &lt;b&gt;Grundrisse&lt;/b&gt;: ein Polygon je Block (die Spalten, die er bedeckt). Beide haben die Felder block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) und n_voxels des Voxelmodells, dann mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist und max_dist (m, Knoten zu den Daten) des endgültigen Netzes. &lt;b&gt;Geländeoberfläche&lt;/b&gt;: das Gelände, in Kacheln. &lt;b&gt;Netzdatei&lt;/b&gt;: geschlossene, konforme Oberflächen jedes Blocks, des Bodens und der Luft; die Endung wählt das Format (.msh mit physikalischen Gruppen je Grenzfläche und je Region, .vtu, .obj, .stl, .ply); daneben wird ein PNG-Vorschaubild geschrieben.&lt;/p&gt;</translation>
+    </message>
+    <message>
+      <source>Reconstruct building blocks from point cloud</source>
+      <translation>Gebäudeblöcke aus einer Punktwolke rekonstruieren</translation>
+    </message>
+    <message>
+      <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud (.las or .laz).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Voxel-Gebäudeblöcke aus einer klassifizierten LiDAR-Punktwolke (.las oder .laz).&lt;/p&gt;&lt;p&gt;&lt;b&gt;KBS&lt;/b&gt;: das Koordinatenbezugssystem der Punkte; standardmäßig das aus dem Dateikopf. Erforderlich, wenn der Kopf keines enthält (z. B. AHN3-Kacheln: EPSG:28992); es ersetzt das des Kopfes.&lt;br&gt;&lt;b&gt;Bodenklassen&lt;/b&gt; / &lt;b&gt;Gebäudeklassen&lt;/b&gt;: ASPRS-Klassifizierungscodes, durch Kommas getrennt (Boden 2, Gebäude 6 in Standard-LAS). Punkte anderer Klassen werden ignoriert.&lt;/p&gt;</translation>
+    </message>
+  </context>
+</TS>

@@ -1,0 +1,191 @@
+<?xml version="1.0" encoding="utf-8"?>
+<!DOCTYPE TS>
+<TS version="2.1" language="fr">
+  <context>
+    <name>urbanvox</name>
+    <message>
+      <source>urbanvox: voxel building blocks from point clouds and meshes</source>
+      <translation>urbanvox : îlots bâtis voxelisés à partir de nuages de points et de maillages</translation>
+    </message>
+    <message>
+      <source>Point cloud (LAS/LAZ)</source>
+      <translation>Nuage de points (LAS/LAZ)</translation>
+    </message>
+    <message>
+      <source>CRS of the points (default: from the file header)</source>
+      <translation>SCR des points (par défaut : celui de l'en-tête du fichier)</translation>
+    </message>
+    <message>
+      <source>Ground classes (comma-separated)</source>
+      <translation>Classes du sol (séparées par des virgules)</translation>
+    </message>
+    <message>
+      <source>Building classes (comma-separated)</source>
+      <translation>Classes des bâtiments (séparées par des virgules)</translation>
+    </message>
+    <message>
+      <source>Voxel size (m)</source>
+      <translation>Taille des voxels (m)</translation>
+    </message>
+    <message>
+      <source>Minimum block height (m)</source>
+      <translation>Hauteur minimale d'un îlot (m)</translation>
+    </message>
+    <message>
+      <source>Minimum block footprint (m²)</source>
+      <translation>Emprise minimale d'un îlot (m²)</translation>
+    </message>
+    <message>
+      <source>Minimum block volume (m³)</source>
+      <translation>Volume minimal d'un îlot (m³)</translation>
+    </message>
+    <message>
+      <source>Domain extent (default: the data's)</source>
+      <translation>Emprise du domaine (par défaut : celle des données)</translation>
+    </message>
+    <message>
+      <source>Smoothing passes (Catmull-Clark)</source>
+      <translation>Passes de lissage (Catmull-Clark)</translation>
+    </message>
+    <message>
+      <source>Project the smoothed surfaces onto the data</source>
+      <translation>Projeter les surfaces lissées sur les données</translation>
+    </message>
+    <message>
+      <source>Minimum face quality (inradius / longest edge, 1 = equilateral)</source>
+      <translation>Qualité minimale des faces (rayon inscrit / plus grand côté, 1 = équilatéral)</translation>
+    </message>
+    <message>
+      <source>Building blocks (3D surfaces)</source>
+      <translation>Îlots bâtis (surfaces 3D)</translation>
+    </message>
+    <message>
+      <source>Building footprints</source>
+      <translation>Emprises des îlots bâtis</translation>
+    </message>
+    <message>
+      <source>Ground surface</source>
+      <translation>Surface du sol</translation>
+    </message>
+    <message>
+      <source>Conforming mesh file (blocks, ground, air)</source>
+      <translation>Fichier de maillage conforme (îlots, sol, air)</translation>
+    </message>
+    <message>
+      <source>gmsh (*.msh);;VTK unstructured grid (*.vtu);;Wavefront OBJ (*.obj);;STL, one solid per region (*.stl);;PLY (*.ply)</source>
+      <translation>gmsh (*.msh);;Maillage non structuré VTK (*.vtu);;Wavefront OBJ (*.obj);;STL, un solide par région (*.stl);;PLY (*.ply)</translation>
+    </message>
+    <message>
+      <source>Preview picture (PNG)</source>
+      <translation>Image d'aperçu (PNG)</translation>
+    </message>
+    <message>
+      <source>Number of building blocks</source>
+      <translation>Nombre d'îlots bâtis</translation>
+    </message>
+    <message>
+      <source>Total volume of the blocks (m³)</source>
+      <translation>Volume total des îlots (m³)</translation>
+    </message>
+    <message>
+      <source>The input file.</source>
+      <translation>Le fichier d'entrée.</translation>
+    </message>
+    <message>
+      <source>Coordinate reference system of the input, projected (metres or feet).</source>
+      <translation>Système de coordonnées de l'entrée, projeté (mètres ou pieds).</translation>
+    </message>
+    <message>
+      <source>ASPRS classification codes of the ground points, comma-separated (standard: 2).</source>
+      <translation>Codes de classification ASPRS des points du sol, séparés par des virgules (standard : 2).</translation>
+    </message>
+    <message>
+      <source>Classification codes of the building points, comma-separated (standard: 6); vegetation, noise and other codes are ignored.</source>
+      <translation>Codes de classification des points de bâtiment, séparés par des virgules (standard : 6) ; la végétation, le bruit et les autres codes sont ignorés.</translation>
+    </message>
+    <message>
+      <source>Edge of a voxel in metres. Details smaller than about a voxel disappear; halving it costs about 8 times the memory and time.</source>
+      <translation>Arête d'un voxel en mètres. Les détails plus petits qu'environ un voxel disparaissent ; la diviser par deux coûte environ 8 fois plus de mémoire et de temps.</translation>
+    </message>
+    <message>
+      <source>Blocks lower than this (m, top above the ground under them) are dropped.</source>
+      <translation>Les îlots plus bas que cela (m, sommet au-dessus du sol sous l'îlot) sont supprimés.</translation>
+    </message>
+    <message>
+      <source>Blocks covering less ground than this (m²) are dropped.</source>
+      <translation>Les îlots couvrant moins de sol que cela (m²) sont supprimés.</translation>
+    </message>
+    <message>
+      <source>Blocks smaller than this (m³) are dropped.</source>
+      <translation>Les îlots plus petits que cela (m³) sont supprimés.</translation>
+    </message>
+    <message>
+      <source>The domain: data outside is ignored, and blocks crossing its edge are closed on it. Default: the extent of the data. Give it in the data's CRS.</source>
+      <translation>Le domaine : les données en dehors sont ignorées et les îlots qui en franchissent le bord y sont fermés. Par défaut : l'emprise des données. À donner dans le SCR des données.</translation>
+    </message>
+    <message>
+      <source>Vertex-only Catmull-Clark passes over the voxel surfaces (the paper uses 3); 0 keeps the voxel faces.</source>
+      <translation>Passes de Catmull-Clark (sommets seulement) sur les surfaces voxelisées (l'article en utilise 3) ; 0 conserve les faces des voxels.</translation>
+    </message>
+    <message>
+      <source>Move the smoothed nodes onto moving-least-squares planes of the data, along their normals.</source>
+      <translation>Déplacer les nœuds lissés sur des plans des moindres carrés mobiles des données, le long de leurs normales.</translation>
+    </message>
+    <message>
+      <source>Smoothing and projection moves that would leave a face of lower quality (inradius / longest edge, 1 for an equilateral triangle, 0.72 for a voxel face) are refused.</source>
+      <translation>Les déplacements de lissage et de projection qui laisseraient une face de moindre qualité (rayon inscrit / plus grand côté, 1 pour un triangle équilatéral, 0,72 pour une face de voxel) sont refusés.</translation>
+    </message>
+    <message>
+      <source>One feature per building block: its closed 3-D surface, with height, areas, volumes, mesh quality and distance to the data.</source>
+      <translation>Une entité par îlot bâti : sa surface 3D fermée, avec hauteur, aires, volumes, qualité du maillage et distance aux données.</translation>
+    </message>
+    <message>
+      <source>One polygon per building block: the ground it covers, with the same fields.</source>
+      <translation>Un polygone par îlot bâti : le sol qu'il couvre, avec les mêmes champs.</translation>
+    </message>
+    <message>
+      <source>The terrain surface, in tiles of 64 x 64 voxels.</source>
+      <translation>La surface du terrain, par tuiles de 64 x 64 voxels.</translation>
+    </message>
+    <message>
+      <source>Closed, conforming surfaces of every block, the ground and the air, for a finite-element or CFD mesher: .msh (gmsh, physical groups), .vtu, .obj, .stl or .ply. A PNG picture is written beside it.</source>
+      <translation>Surfaces fermées et conformes de chaque îlot, du sol et de l'air, pour un mailleur éléments finis ou CFD : .msh (gmsh, groupes physiques), .vtu, .obj, .stl ou .ply. Une image PNG est écrite à côté.</translation>
+    </message>
+    <message>
+      <source>Building mesh (STL/OBJ/PLY/OFF)</source>
+      <translation>Maillage des bâtiments (STL/OBJ/PLY/OFF)</translation>
+    </message>
+    <message>
+      <source>Ground mesh</source>
+      <translation>Maillage du sol</translation>
+    </message>
+    <message>
+      <source>CRS of the mesh coordinates</source>
+      <translation>SCR des coordonnées du maillage</translation>
+    </message>
+    <message>
+      <source>Optional terrain mesh; without it the ground passes through the bottom of every building part.</source>
+      <translation>Maillage du terrain, facultatif ; sans lui, le sol passe par le bas de chaque partie de bâtiment.</translation>
+    </message>
+    <message>
+      <source>Reconstruct building blocks from mesh</source>
+      <translation>Reconstruire les îlots bâtis à partir d'un maillage</translation>
+    </message>
+    <message>
+      <source>&lt;p&gt;Voxel building blocks from a triangle mesh of buildings, e.g. an STL exported from CityGML (also OBJ, PLY, OFF). Triangles may overlap, intersect or leave gaps: they are sampled into points no farther apart than 10% of a voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Ground mesh&lt;/b&gt; [optional]: a mesh of the terrain; without it the ground is taken under the lowest building points.&lt;br&gt;&lt;b&gt;CRS&lt;/b&gt;: required, since STL and most mesh formats carry none.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Îlots bâtis voxelisés à partir d'un maillage triangulaire de bâtiments, par exemple un STL exporté de CityGML (aussi OBJ, PLY, OFF). Les triangles peuvent se chevaucher, se couper ou laisser des trous : ils sont échantillonnés en points espacés d'au plus 10 % d'un voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Maillage du sol&lt;/b&gt; [facultatif] : un maillage du terrain ; sans lui, le sol est pris sous les points les plus bas des bâtiments.&lt;br&gt;&lt;b&gt;SCR&lt;/b&gt; : obligatoire, le STL et la plupart des formats de maillage n'en portent pas.&lt;/p&gt;</translation>
+    </message>
+    <message>
+      <source>&lt;p&gt;The data are put in a grid of cubic voxels; voxels are sorted into ground, building and air (air is flood-filled from above, so closed courtyards and inner surfaces are handled); face-connected building voxels form a building block. Blocks lower, smaller or lighter than the thresholds are dropped.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Voxel size&lt;/b&gt;: edge of a voxel in metres; halving it multiplies memory and time by ~8.&lt;br&gt;&lt;b&gt;Minimum height / footprint / volume&lt;/b&gt;: blocks below any of them are discarded.&lt;br&gt;&lt;b&gt;Smoothing passes&lt;/b&gt;: vertex-only Catmull-Clark passes (paper: 3); nodes at the foot of the walls keep their height. &lt;b&gt;Project&lt;/b&gt;: move the smoothed nodes onto moving-least-squares planes of the data. &lt;b&gt;Minimum face quality&lt;/b&gt;: a smoothing or projection move that would leave a worse face is refused (a voxel face scores 0.72).&lt;br&gt;&lt;b&gt;Domain extent&lt;/b&gt;: clip the data; blocks crossing it are closed on its sides.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Blocks&lt;/b&gt;: one MultiPolygonZ per block, its closed outer surface (smoothed and projected). &lt;b&gt;Footprints&lt;/b&gt;: one polygon per block (the columns it covers). Both have the fields block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) and n_voxels of the voxel model, then mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist and max_dist (m, nodes to the data) of the final mesh. &lt;b&gt;Ground surface&lt;/b&gt;: the terrain, in tiles. &lt;b&gt;Mesh file&lt;/b&gt;: closed, conforming surfaces of every block, the ground and the air; the extension picks the format (.msh with physical groups per interface and per region, .vtu, .obj, .stl, .ply); a PNG preview is written beside it.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Les données sont placées dans une grille de voxels cubiques ; les voxels sont classés en sol, bâtiment et air (l'air est propagé depuis le haut, ce qui traite les cours fermées et les surfaces intérieures) ; les voxels de bâtiment reliés par une face forment un îlot. Les îlots plus bas, plus petits ou plus légers que les seuils sont supprimés.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Taille des voxels&lt;/b&gt; : arête d'un voxel en mètres ; la diviser par deux multiplie mémoire et temps par ~8.&lt;br&gt;&lt;b&gt;Hauteur / emprise / volume minimaux&lt;/b&gt; : les îlots en dessous de l'un d'eux sont écartés.&lt;br&gt;&lt;b&gt;Passes de lissage&lt;/b&gt; : passes de Catmull-Clark sur les sommets seulement (article : 3) ; les nœuds au pied des murs gardent leur altitude. &lt;b&gt;Projeter&lt;/b&gt; : déplacer les nœuds lissés sur des plans des moindres carrés mobiles des données. &lt;b&gt;Qualité minimale des faces&lt;/b&gt; : un déplacement qui laisserait une face moins bonne est refusé (une face de voxel vaut 0,72).&lt;br&gt;&lt;b&gt;Emprise du domaine&lt;/b&gt; : découpe les données ; les îlots qui la franchissent sont fermés sur ses côtés.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Îlots&lt;/b&gt; : un MultiPolygonZ par îlot, sa surface extérieure fermée (lissée et projetée). &lt;b&gt;Emprises&lt;/b&gt; : un polygone par îlot (les colonnes qu'il couvre). Les deux ont les champs block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) et n_voxels du modèle voxel, puis mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist et max_dist (m, des nœuds aux données) du maillage final. &lt;b&gt;Surface du sol&lt;/b&gt; : le terrain, par tuiles. &lt;b&gt;Fichier de maillage&lt;/b&gt; : surfaces fermées et conformes de chaque îlot, du sol et de l'air ; l'extension choisit le format (.msh avec groupes physiques par interface et par région, .vtu, .obj, .stl, .ply) ; un aperçu PNG est écrit à côté.&lt;/p&gt;</translation>
+    </message>
+    <message>
+      <source>Reconstruct building blocks from point cloud</source>
+      <translation>Reconstruire les îlots bâtis à partir d'un nuage de points</translation>
+    </message>
+    <message>
+      <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud (.las or .laz).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Îlots bâtis voxelisés à partir d'un nuage de points LiDAR classifié (.las ou .laz).&lt;/p&gt;&lt;p&gt;&lt;b&gt;SCR&lt;/b&gt; : le système de coordonnées des points ; par défaut celui de l'en-tête du fichier. Obligatoire quand l'en-tête n'en a pas (par ex. dalles AHN3 : EPSG:28992) ; il remplace celui de l'en-tête.&lt;br&gt;&lt;b&gt;Classes du sol&lt;/b&gt; / &lt;b&gt;Classes des bâtiments&lt;/b&gt; : codes de classification ASPRS, séparés par des virgules (sol 2, bâtiment 6 en LAS standard). Les points des autres classes sont ignorés.&lt;/p&gt;</translation>
+    </message>
+  </context>
+</TS>

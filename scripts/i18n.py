@@ -1,0 +1,91 @@
+"""Translations of the plugin's user-visible strings (Qt Linguist .ts files in i18n/).
+
+    .venv/bin/python scripts/i18n.py update   # collect the strings (needs QGIS), merge into i18n/*.ts
+    lrelease i18n/urbanvox_fr.ts -qm i18n/urbanvox_fr.qm    # what `make` does for every .ts
+
+Strings are collected by running the algorithms' text methods with ``tr`` recorded (many are
+built from tables, which a source scanner would miss). Existing translations are kept; new
+strings are added as unfinished, strings no longer used are dropped.
+"""
+import sys
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CONTEXT = "urbanvox"
+LANGUAGES = ("fr", "de")
+
+
+def collect() -> list[str]:
+    """Every string the plugin passes to its translator, in order of first use."""
+    sys.path.insert(0, str(ROOT / ".build" / "plugins"))
+    from qgis.core import QgsApplication
+
+    app = QgsApplication([], False)
+    app.initQgis()
+    from urbanvox.processing_provider import provider as provider_module
+    from urbanvox.processing_provider.algorithms import base
+
+    seen: list[str] = []
+
+    def record(text: str) -> str:
+        if text not in seen:
+            seen.append(text)
+        return text
+
+    base.UrbanvoxAlgorithm.tr = lambda self, text: record(text)
+    provider_module.tr = record
+    provider = provider_module.UrbanvoxProvider()
+    provider.longName()
+    provider.loadAlgorithms()
+    for algorithm in provider.algorithms():
+        algorithm = algorithm.create()
+        algorithm.displayName()
+        algorithm.shortHelpString()
+    return seen
+
+
+def read_ts(path: Path) -> dict[str, str]:
+    if not path.exists():
+        return {}
+    translations = {}
+    for message in ET.parse(path).getroot().iter("message"):
+        translation = message.find("translation")
+        if translation is not None and translation.text and translation.get("type") != "unfinished":
+            translations[message.find("source").text] = translation.text
+    return translations
+
+
+def write_ts(path: Path, language: str, strings: list[str], translations: dict[str, str]) -> None:
+    ts = ET.Element("TS", version="2.1", language=language)
+    context = ET.SubElement(ts, "context")
+    ET.SubElement(context, "name").text = CONTEXT
+    for text in strings:
+        message = ET.SubElement(context, "message")
+        ET.SubElement(message, "source").text = text
+        translation = ET.SubElement(message, "translation")
+        if text in translations:
+            translation.text = translations[text]
+        else:
+            translation.set("type", "unfinished")
+    ET.indent(ts)
+    path.write_text('<?xml version="1.0" encoding="utf-8"?>\n<!DOCTYPE TS>\n'
+                    + ET.tostring(ts, encoding="unicode") + "\n", encoding="utf-8")
+
+
+def main(argv: list[str]) -> int:
+    if argv[:1] != ["update"]:
+        print(__doc__)
+        return 2
+    strings = collect()
+    for language in LANGUAGES:
+        path = ROOT / "i18n" / f"urbanvox_{language}.ts"
+        translations = read_ts(path)
+        write_ts(path, language, strings, translations)
+        missing = [s for s in strings if s not in translations]
+        print(f"{path.name}: {len(strings)} strings, {len(missing)} to translate")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
