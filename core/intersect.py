@@ -14,14 +14,17 @@ triangle diameter. Narrow phase: an edge of one triangle crossing the other
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .errors import Cancelled
 from .quality import best_split
 
 
 def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarray,
-                       chunk: int = 20_000) -> np.ndarray:
+                       chunk: int = 20_000, is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
     """Pairs ``(a, b)`` of triangles that cross, ``a`` among the ``focus`` ones.
 
     Examples
@@ -44,6 +47,8 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     everything = cKDTree(centre)
     found = []
     for start in range(0, len(focus), chunk):
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
         part = focus[start:start + chunk]
         pairs = cKDTree(centre[part]).sparse_distance_matrix(everything, 2 * reach, output_type="ndarray")
         a = part[pairs["i"]]
@@ -83,7 +88,8 @@ def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: np.ndarray,
-                   max_rounds: int = 20) -> tuple[np.ndarray, np.ndarray, int]:
+                   max_rounds: int = 20,
+                   is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Undo moves until no moved triangle crosses another.
 
     Parameters
@@ -110,7 +116,7 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         if near is not None:
             centre = positions[triangles].mean(axis=1)
             focus &= np.all((centre >= near[0]) & (centre <= near[1]), axis=1)
-        pairs = crossing_triangles(positions, triangles, np.flatnonzero(focus))
+        pairs = crossing_triangles(positions, triangles, np.flatnonzero(focus), is_cancelled=is_cancelled)
         if len(pairs) == 0:
             break
         culprits = np.unique(triangles[pairs.ravel()])

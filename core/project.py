@@ -140,6 +140,8 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     stats = {"projected": 0, "no_plane": 0, "refused": 0}
     if len(idx_nodes) == 0 or len(data) < 3:
         return nodes, stats
+    if is_cancelled is not None and is_cancelled():
+        raise Cancelled()
     normal = outward_normals(model, nodes, roles)[idx_nodes]
     # Constrained coordinates are not moved: drop them from the direction.
     normal[roles.fixed_axes[idx_nodes]] = 0.0
@@ -180,11 +182,12 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     proposal = nodes.copy()
     proposal[idx_nodes] = np.where(roles.fixed_axes[idx_nodes], p, target)
     wanted = np.any(proposal != nodes, axis=1)
-    result, kept = accept_moves(nodes, proposal, model.quads, threshold)
+    result, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled)
     # A node pushed along its normal may cross a face of a thin neighbouring part.
     stats["crossing"] = 0
     if check_crossings:
-        result, kept, stats["crossing"] = undo_crossings(nodes, result, kept & wanted, model.quads)
+        result, kept, stats["crossing"] = undo_crossings(nodes, result, kept & wanted, model.quads,
+                                                         is_cancelled=is_cancelled)
     stats["projected"] = int((wanted & kept).sum())
     stats["refused"] = int((wanted & ~kept).sum())
     return result, stats

@@ -14,7 +14,11 @@ isosceles triangles: q = 0.717.
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
+
+from .errors import Cancelled
 
 #: Quality of a voxel face (a square split along a diagonal).
 SQUARE_QUALITY = float(4 * np.sqrt(3) * 0.5 / ((2 + np.sqrt(2)) * np.sqrt(2)))
@@ -90,7 +94,8 @@ def quad_quality(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
 
 
 def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold: float,
-                 max_rounds: int = 100) -> tuple[np.ndarray, np.ndarray]:
+                 max_rounds: int = 100,
+                 is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Keep each node move only while every face around it stays acceptable.
 
     A face is acceptable when its quality is at least ``threshold`` (or no
@@ -122,6 +127,8 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
     positions = new.copy()
     check = np.arange(len(sub))  # faces whose nodes changed since they were checked
     for _ in range(max_rounds):
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
         if len(check) == 0:
             break
         q = quad_quality(positions, sub[check])

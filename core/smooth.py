@@ -161,7 +161,7 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
             raise Cancelled()
         proposal = np.where(keep, nodes, W @ nodes)
         wanted = np.any(proposal != nodes, axis=1)
-        nodes, kept = accept_moves(nodes, proposal, model.quads, threshold)
+        nodes, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled)
         stats["moved"].append(int(kept.sum()))
         stats["refused"].append(int((wanted & ~kept).sum()))
     return nodes, stats
