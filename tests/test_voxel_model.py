@@ -10,7 +10,7 @@ from core.errors import UrbanvoxError
 from core.grid import VoxelGrid, check_memory
 from core.ground import column_ground_level
 from core.manifold import make_well_composed, repair_height_field
-from core.surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel, region_volume
+from core.surface import AIR_REGION, GROUND_REGION, SurfaceModel, region_volume
 from core.topology import check_surface, signed_volume
 
 
