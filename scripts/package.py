@@ -12,7 +12,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 INCLUDE = ("metadata.txt", "__init__.py", "README.md", "LICENSE", "requirements.txt",
-           "processing_provider/", "core/", "icons/", "i18n/")
+           "processing_provider/", "core/", "icons/", "i18n/", "docs/")
 
 
 def plugin_files() -> list[str]:

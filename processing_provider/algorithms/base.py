@@ -273,6 +273,14 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                        "A PNG picture is written beside it.",
     }
 
+    def helpLink(self):  # noqa: N802
+        """A link to the README and to the method's paper figure, for the help panel."""
+        picture = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(__file__))), "docs", "district.png")
+        link = f'<p><a href="{self.helpUrl()}">README</a></p>'
+        if os.path.exists(picture):
+            link = f'<p><img src="{picture}" width="320"></p>' + link
+        return link
+
     def helpUrl(self):  # noqa: N802 (QGIS API name)
         from qgis.PyQt.QtCore import QUrl
 

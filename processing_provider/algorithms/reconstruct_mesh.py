@@ -25,7 +25,7 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
             "<p><b>Ground mesh</b> [optional]: a mesh of the terrain; without it the ground is taken under the "
             "lowest building points.<br>"
             "<b>CRS</b>: required, since STL and most mesh formats carry none.</p>"
-        ) + self.tr(self.COMMON_HELP)
+        ) + self.tr(self.COMMON_HELP) + self.helpLink()
 
     def addInputParameters(self):  # noqa: N802
         self.addParameter(

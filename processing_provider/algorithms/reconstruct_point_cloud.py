@@ -23,7 +23,7 @@ class ReconstructFromPointCloud(UrbanvoxAlgorithm):
             "header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.<br>"
             "<b>Ground classes</b> / <b>Building classes</b>: ASPRS classification codes, comma-separated "
             "(ground 2, building 6 in standard LAS). Points of other classes are ignored.</p>"
-        ) + self.tr(self.COMMON_HELP)
+        ) + self.tr(self.COMMON_HELP) + self.helpLink()
 
     def addInputParameters(self):  # noqa: N802
         self.addParameter(

@@ -144,6 +144,7 @@ def test_every_parameter_has_help_and_the_algorithm_a_help_url(urbanvox_plugin, 
         assert len(definition.help()) > 10, definition.name()
     assert alg.helpUrl().startswith("file://") and alg.helpUrl().endswith("README.md#use-in-qgis")
     assert "Catmull-Clark" in alg.shortHelpString()
+    assert 'href="file://' in alg.shortHelpString() and "<img" in alg.shortHelpString()
 
 
 def test_french_qgis_shows_translated_names(qgis_process):
