@@ -17,9 +17,10 @@ import numpy as np
 
 from .errors import UrbanvoxError
 
-#: Bytes per voxel the pipeline holds at its peak (labels uint8, building
-#: mask, region int32 for faces, scipy.ndimage.label int32 output and its
-#: work arrays). Measured on the synthetic district; used by the memory guard.
+#: Bytes per voxel the voxel stages hold at once: labels (uint8), boolean
+#: masks, the int32 output of scipy.ndimage.label and the int32 regions the
+#: faces are read from. An estimate from those arrays, used by the memory
+#: guard; benchmarks/stages.py prints the measured peak of every stage.
 BYTES_PER_VOXEL = 16
 
 
