@@ -76,9 +76,7 @@ def block_attributes(blocks: np.ndarray, n: int, grid: VoxelGrid) -> BlockTable:
     i, j, k = np.nonzero(blocks)
     ids = blocks[i, j, k]
     n_voxels = np.bincount(ids, minlength=n + 1)[1:]
-    # Footprint: distinct (block, column) pairs.
-    pair = np.unique(ids.astype(np.int64) * (nx * ny) + i * ny + j)
-    columns = np.bincount(pair // (nx * ny), minlength=n + 1)[1:]
+    columns = np.bincount(_columns(ids, i, j, nx, ny)[:, 0], minlength=n + 1)[1:]
     lowest = np.full(n + 1, nz, dtype=np.int64)
     highest = np.full(n + 1, -1, dtype=np.int64)
     np.minimum.at(lowest, ids, k)
@@ -92,6 +90,25 @@ def block_attributes(blocks: np.ndarray, n: int, grid: VoxelGrid) -> BlockTable:
         ground_z=z0 + lowest[1:] * h,
         top_z=z0 + (highest[1:] + 1) * h,
     )
+
+
+def block_columns(blocks: np.ndarray) -> np.ndarray:
+    """Distinct ``(block id, i, j)`` of every column a block covers, sorted by block.
+
+    Examples
+    --------
+    >>> b = np.array([[[1, 1]], [[0, 2]]], np.int32)
+    >>> block_columns(b).tolist()
+    [[1, 0, 0], [2, 1, 0]]
+    """
+    nx, ny, _ = blocks.shape
+    i, j, k = np.nonzero(blocks)
+    return _columns(blocks[i, j, k], i, j, nx, ny)
+
+
+def _columns(ids: np.ndarray, i: np.ndarray, j: np.ndarray, nx: int, ny: int) -> np.ndarray:
+    key = np.unique(ids.astype(np.int64) * (nx * ny) + i * ny + j)
+    return np.column_stack([key // (nx * ny), (key % (nx * ny)) // ny, key % ny])
 
 
 def small_blocks(table: BlockTable, min_height: float, min_footprint: float,

@@ -28,34 +28,6 @@ from .grid import VoxelGrid
 _CANDIDATES = 16
 
 
-def air_faces(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Every building/air face: its building cell, axis and outward sign.
-
-    Returns
-    -------
-    cells : ndarray of int, shape (F, 3)
-    axis : ndarray of int, shape (F,)
-    sign : ndarray of int, shape (F,)
-        +1 when the air is on the positive side of the cell.
-    """
-    building = labels == BUILDING
-    air = labels == AIR
-    cells, axes, signs = [], [], []
-    for axis in range(3):
-        lo = [slice(None)] * 3
-        hi = [slice(None)] * 3
-        lo[axis] = slice(0, -1)
-        hi[axis] = slice(1, None)
-        for sign, mine, theirs in ((1, lo, hi), (-1, hi, lo)):
-            found = np.argwhere(building[tuple(mine)] & air[tuple(theirs)])
-            if sign == -1:
-                found[:, axis] += 1
-            cells.append(found)
-            axes.append(np.full(len(found), axis))
-            signs.append(np.full(len(found), sign))
-    return np.concatenate(cells), np.concatenate(axes), np.concatenate(signs)
-
-
 def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
                           support: float = 0.6, extrude_roofs: bool = False, max_passes: int = 10,
                           is_cancelled: Callable[[], bool] | None = None) -> int:
@@ -103,10 +75,8 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
     for _ in range(max_passes):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        if exposed is None:
-            cells, axis, sign = air_faces(labels)
-        else:
-            cells, axis, sign = _air_faces_of(flat, exposed[flat[exposed] == BUILDING], shape, stride)
+        candidates = np.flatnonzero(flat == BUILDING) if exposed is None else exposed[flat[exposed] == BUILDING]
+        cells, axis, sign = air_faces(flat, candidates, shape, stride)
         if len(cells) == 0:
             break
         gone = np.unique(cells[~test(cells, axis, sign)] @ stride)
@@ -114,7 +84,7 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
             break
         flat[gone] = AIR
         total += len(gone)
-        ijk = np.column_stack([gone // stride[0], (gone // stride[1]) % shape[1], gone % shape[2]])
+        ijk = np.column_stack(np.unravel_index(gone, labels.shape))
         around = (ijk[:, None, :] + _SIX[None, :, :]).reshape(-1, 3)
         around = around[np.all((around >= 0) & (around < shape), axis=1)]
         exposed = np.unique(around @ stride)
@@ -124,9 +94,28 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
 _SIX = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
 
 
-def _air_faces_of(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray, stride: np.ndarray):
-    """:func:`air_faces` restricted to the given cells (flat indices)."""
-    ijk = np.column_stack([cells // stride[0], (cells // stride[1]) % shape[1], cells % shape[2]])
+def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
+              stride: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The building/air faces of the given building cells.
+
+    Parameters
+    ----------
+    flat : ndarray of uint8
+        The labels, raveled (C order).
+    cells : ndarray of int
+        Flat indices of the building cells to look at.
+    shape, stride : ndarray of int
+        Grid shape and the strides of the flat index.
+
+    Returns
+    -------
+    cells : ndarray of int, shape (F, 3)
+        The building cell of each face.
+    axis : ndarray of int, shape (F,)
+    sign : ndarray of int, shape (F,)
+        +1 when the air is on the positive side of the cell.
+    """
+    ijk = np.column_stack(np.unravel_index(cells, tuple(shape)))
     out_cells, out_axis, out_sign = [], [], []
     for step in _SIX:
         other = ijk + step

@@ -152,7 +152,7 @@ def _all_critical_cubes(labels: np.ndarray) -> np.ndarray:
 
 def _cubes_around(cells: np.ndarray, shape: np.ndarray, stride: np.ndarray) -> np.ndarray:
     """Flat origins of the (up to 8) cubes that contain each cell."""
-    ijk = np.column_stack([cells // stride[0], (cells // stride[1]) % shape[1], cells % shape[2]])
+    ijk = np.column_stack(np.unravel_index(cells, tuple(shape)))
     origins = (ijk[:, None, :] - CORNERS[None, :, :]).reshape(-1, 3)
     inside = np.all((origins >= 0) & (origins <= shape - 2), axis=1)
     return np.unique(origins[inside] @ stride)

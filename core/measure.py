@@ -32,16 +32,6 @@ class BlockMeasures:
     max_dist: np.ndarray
 
 
-def block_faces(model: SurfaceModel) -> tuple[np.ndarray, np.ndarray]:
-    """Outward quads of every block face and the block id owning each."""
-    a, b = model.regions[:, 0], model.regions[:, 1]
-    first = a > 0
-    second = b > 0
-    quads = np.concatenate([model.quads[first], model.quads[second][:, ::-1]])
-    owner = np.concatenate([a[first], b[second]])
-    return quads, owner
-
-
 def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
                    node_distance: np.ndarray | None = None,
                    facade_tilt: float = 30.0) -> BlockMeasures:
@@ -71,9 +61,9 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     (array([8.]), array([4.]), array([16.]))
     """
     moved = SurfaceModel(nodes=nodes, quads=model.quads, regions=model.regions)
-    quads, owner = block_faces(moved)
+    quads, owner = moved.block_faces()
     quality = best_split(nodes, quads)[1]
-    triangles, tri_owner = block_faces(moved.triangulated())
+    triangles, tri_owner = moved.triangulated().block_faces()
     p = nodes[triangles]
     cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     tri_area = 0.5 * np.linalg.norm(cross, axis=1)

@@ -32,7 +32,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .blocks import BlockTable, block_attributes, drop_blocks, label_blocks, small_blocks
+from .blocks import BlockTable, block_attributes, block_columns, drop_blocks, label_blocks, small_blocks
 from .classify import classify_voxels, roof_hole_columns
 from .clusters import merge as merge_clusters
 from .clusters import split_clusters
@@ -178,13 +178,12 @@ class Reconstruction:
         """
         import shapely
 
-        from .measure import block_faces
 
         ids = self.blocks.block_id
         lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
         lookup[ids] = np.arange(len(ids))
         model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh.triangulated()
-        faces, owner = block_faces(model)
+        faces, owner = model.block_faces()
         index = lookup[owner]
         order = np.argsort(index, kind="stable")
         rings = self.grid.to_world(self.mesh.nodes)[faces[order]]
@@ -426,7 +425,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
 
     report(0.7, "Conforming surfaces")
     surface = SurfaceModel.from_regions(grid, region_volume(labels, blocks))
-    columns = _footprint_columns(blocks, grid)
+    columns = block_columns(blocks)
     del labels, blocks
     lap("surface")
 
@@ -533,13 +532,6 @@ def _occupied_cells(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
     nx, ny, _ = grid.shape
     number = np.unique(grid.voxel_number(grid.cell_of(points)))
     return np.column_stack([number % nx, (number // nx) % ny, number // (nx * ny)])
-
-
-def _footprint_columns(blocks: np.ndarray, grid: VoxelGrid) -> np.ndarray:
-    nx, ny, _ = grid.shape
-    i, j, k = np.nonzero(blocks)
-    key = np.unique(blocks[i, j, k].astype(np.int64) * (nx * ny) + i * ny + j)
-    return np.column_stack([key // (nx * ny), (key % (nx * ny)) // ny, key % ny])
 
 
 def _plain(value: float) -> float | None:

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 
-from .measure import block_faces
 from .surface import AIR_REGION, GROUND_REGION, SurfaceModel
 
 #: Viewer direction (from the scene towards the eye): south-west, 35 degrees up.
@@ -32,7 +31,7 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
 
     eye, right, up = _view_axes()
     tri = model.triangulated()
-    block_tri, owner = block_faces(tri)
+    block_tri, owner = tri.block_faces()
     ground_tri = tri.interface(GROUND_REGION, AIR_REGION)
     faces = np.concatenate([block_tri, ground_tri])
     p = tri.nodes[faces]

@@ -61,14 +61,9 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
 
 def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles) -> np.ndarray:
     """Normals pointing out of the region that owns each node (block, else ground)."""
-    a, b = model.regions[:, 0], model.regions[:, 1]
     n = len(nodes)
-    block_faces = (a > 0) | (b > 0)
-    block_quads = np.where((b > 0)[block_faces, None], model.quads[block_faces][:, ::-1],
-                           model.quads[block_faces])
-    ground_faces = (a == GROUND_REGION) | (b == GROUND_REGION)
-    ground_quads = np.where((b == GROUND_REGION)[ground_faces, None], model.quads[ground_faces][:, ::-1],
-                            model.quads[ground_faces])
+    block_quads, _ = model.block_faces()
+    ground_quads = model.closed_surface(GROUND_REGION)
     return np.where(roles.on_block[:, None], node_normals(nodes, block_quads, n),
                     node_normals(nodes, ground_quads, n))
 

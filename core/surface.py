@@ -134,6 +134,16 @@ class SurfaceModel:
         quads[inward] = quads[inward, ::-1]
         return quads
 
+    def block_faces(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every face of every block, oriented out of it, and the block owning each.
+
+        Blocks never touch each other, so each face belongs to at most one block.
+        """
+        a, b = self.regions[:, 0], self.regions[:, 1]
+        first, second = a > 0, b > 0
+        faces = np.concatenate([self.quads[first], self.quads[second][:, ::-1]])
+        return faces, np.concatenate([a[first], b[second]])
+
     def interface(self, a: int, b: int) -> np.ndarray:
         """Quads between regions ``a`` and ``b``, normals from ``a`` into ``b``."""
         forward = (self.regions[:, 0] == a) & (self.regions[:, 1] == b)

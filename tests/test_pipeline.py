@@ -10,7 +10,6 @@ import shapely
 from scipy.spatial import cKDTree
 
 from core.errors import Cancelled, UrbanvoxError
-from core.measure import block_faces
 from core.pipeline import ReconstructionParams, reconstruct_mesh, reconstruct_point_cloud
 from core.quality import quad_quality
 from core.readers.mesh import read_triangles
@@ -122,7 +121,7 @@ def truth_surface(district):
 def test_smoothing_and_projection_bring_nodes_closer_to_the_true_surface(runs, district, truth_surface,
                                                                          kind, h):
     result = runs(kind, h)
-    quads, _ = block_faces(result.mesh)
+    quads, _ = result.mesh.block_faces()
     nodes = np.unique(quads)
     xmax = district.district.extent[2]
     voxel = result.grid.to_world(result.surface.nodes[nodes])
