@@ -105,8 +105,71 @@ class VoxelGrid:
         return local + self.offset
 
 
+@dataclass(frozen=True)
+class GridWindow:
+    """A box of whole columns of the global lattice, with the grid's full height.
+
+    The single run's grid is one window; a tile's grid (:mod:`core.tiles`) is
+    a sub-window of it, so that a voxel has the same place on both lattices.
+
+    Parameters
+    ----------
+    lower : ndarray of shape (3,)
+        World coordinates of the lower corner of the domain's first voxel:
+        the offset of local coordinates, shared by all windows of a domain.
+    shape : tuple of int
+        ``(nx, ny, nz)``, the paper's empty top row included in ``nz``.
+    start : tuple of int
+        Column ``(i, j)`` of the domain where the window starts.
+
+    Examples
+    --------
+    >>> pts = np.array([[10.2, 20.7, 3.1], [13.9, 21.0, 9.5]])
+    >>> w = GridWindow.around(pts, pts[:0], 1.0)
+    >>> w.lower.tolist(), w.shape
+    ([10.0, 20.0, 2.0], (4, 2, 9))
+    >>> w.columns(1, 0, 3, 2).grid(1.0).origin.tolist()
+    [1.0, 0.0, 0.0]
+    """
+
+    lower: np.ndarray
+    shape: tuple[int, int, int]
+    start: tuple[int, int] = (0, 0)
+
+    @classmethod
+    def around(cls, ground: np.ndarray, building: np.ndarray, voxel_size: float,
+               extent: tuple[float, float, float, float] | None = None) -> "GridWindow":
+        """Lattice of multiples of the voxel size covering the points (or the
+        extent), with one ground layer under the lowest point and the paper's
+        empty top row."""
+        h = voxel_size
+        everything = np.concatenate([ground, building]) if len(building) else ground
+        lower = everything.min(axis=0)
+        upper = everything.max(axis=0)
+        if extent is not None:
+            lower[:2] = extent[:2]
+            upper[:2] = np.asarray(extent[2:]) - 1e-9 * h  # the last column ends at xmax
+        lower = np.floor(lower / h) * h - np.array([0.0, 0.0, h])
+        grid = VoxelGrid.around(np.zeros(3), upper - lower, h, offset=lower, extra_top=1)
+        return cls(lower, grid.shape)
+
+    def grid(self, voxel_size: float) -> VoxelGrid:
+        """The voxel grid of the window.
+
+        Local coordinates are the domain's for every window: the numbers a
+        tile computes with are then those of a run on the whole domain.
+        """
+        origin = np.array([self.start[0], self.start[1], 0]) * float(voxel_size)
+        return VoxelGrid(self.lower, origin, float(voxel_size), self.shape)
+
+    def columns(self, i0: int, j0: int, i1: int, j1: int) -> "GridWindow":
+        """The sub-window of columns ``i0 <= i < i1``, ``j0 <= j < j1``."""
+        return GridWindow(self.lower, (int(i1 - i0), int(j1 - j0), self.shape[2]),
+                          (self.start[0] + int(i0), self.start[1] + int(j0)))
+
+
 def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int | None = None,
-                 bytes_per_voxel: int = BYTES_PER_VOXEL) -> int:
+                 bytes_per_voxel: int = BYTES_PER_VOXEL, tile_hint: bool = False) -> int:
     """Estimate the bytes a grid needs; refuse it before allocating if too large.
 
     Parameters
@@ -117,6 +180,8 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
         For the message: the voxel size that would fit is suggested.
     available : int, optional
         Bytes the run may use; default: the machine's available memory.
+    tile_hint : bool
+        Also suggest the tile size (:mod:`core.tiles`) whose grids fit.
 
     Returns
     -------
@@ -145,7 +210,9 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
         raise UrbanvoxError(
             f"The voxel grid ({shape[0]} x {shape[1]} x {shape[2]} = {n} voxels at {voxel_size:g}) "
             f"needs about {needed / 2**30:.1f} GiB but only {available / 2**30:.1f} GiB is available. "
-            f"Use a voxel size of at least {suggestion:g}, or a smaller area.")
+            f"Use a voxel size of at least {suggestion:g}, or a smaller area"
+            + (f", or tiles of at most {_fitting_tile(shape[2], voxel_size, available, bytes_per_voxel):g} "
+               "(TILE_SIZE)." if tile_hint else "."))
     return needed
 
 
@@ -159,3 +226,9 @@ def available_memory() -> int:
     except OSError:
         pass
     return 8 * 2**30
+
+
+def _fitting_tile(nz: int, voxel_size: float, available: int, bytes_per_voxel: int) -> float:
+    """Side of the square tile whose grid, halo included, fits in ``available``."""
+    side = np.sqrt(available / (bytes_per_voxel * nz))  # voxels, halo included
+    return float(max(1.0, np.floor(0.7 * side)) * voxel_size)

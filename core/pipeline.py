@@ -39,13 +39,14 @@ from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
-from .grid import VoxelGrid, check_memory
-from .ground import column_ground_level
+from .grid import GridWindow, VoxelGrid, check_memory
+from .ground import GroundLevel, column_ground_level
 from .manifold import make_well_composed, repair_height_field
 from .measure import BlockMeasures, measure_blocks
 from .project import nearest_distance, project_nodes
 from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
+from .tiles import TileOptions
 
 Progress = Callable[[float, str], None]
 CancelCheck = Callable[[], bool]
@@ -254,6 +255,7 @@ def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: st
                             ground_classes: str | Sequence[int] = "2",
                             building_classes: str | Sequence[int] = "6",
                             params: ReconstructionParams | None = None,
+                            tiles: TileOptions | None = None,
                             progress: Progress | None = None,
                             is_cancelled: CancelCheck | None = None) -> Reconstruction:
     """Voxel model from one or several LAS/LAZ files with ground classification.
@@ -267,6 +269,8 @@ def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: st
     ground_classes, building_classes : str or sequence of int
         Class codes of the ground and of the buildings ("2", "6" in ASPRS);
         other classes (vegetation, noise, ...) are ignored.
+    tiles : TileOptions, optional
+        Reconstruct tile by tile, here or on Dask workers (:mod:`core.tiles`).
     """
     from .readers.las import parse_classes, read_point_clouds
 
@@ -278,12 +282,13 @@ def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: st
     points = read_point_clouds([str(p) for p in paths], parse_classes(ground_classes),
                                parse_classes(building_classes), crs, is_cancelled)
     return reconstruct_points(points.ground, points.building, points.crs, params,
-                              airborne=True, warnings=list(points.warnings),
+                              airborne=True, warnings=list(points.warnings), tiles=tiles,
                               progress=progress, is_cancelled=is_cancelled)
 
 
 def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | None = None,
                      params: ReconstructionParams | None = None,
+                     tiles: TileOptions | None = None,
                      progress: Progress | None = None,
                      is_cancelled: CancelCheck | None = None) -> Reconstruction:
     """Voxel model from a building mesh (STL/OBJ/PLY/OFF) of any quality.
@@ -312,15 +317,17 @@ def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | No
         ground = sample_thinned(ground_triangles.corners(), 0.1 * h, h / 3, is_cancelled)
     else:
         ground = base_points(triangles, h, unit=unit)
-    return reconstruct_points(ground, building, crs_obj, params, airborne=False,
-                              warnings=warnings, progress=progress, is_cancelled=is_cancelled)
+    return reconstruct_points(ground, building, crs_obj, params, airborne=False, warnings=warnings,
+                              tiles=tiles, progress=progress, is_cancelled=is_cancelled)
 
 
 def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: ReconstructionParams,
                        *, airborne: bool, warnings: list[str] | None = None,
                        progress: Progress | None = None,
                        is_cancelled: CancelCheck | None = None,
-                       split: bool = True) -> Reconstruction:
+                       split: bool = True, tiles: TileOptions | None = None,
+                       window: GridWindow | None = None,
+                       ground_level: GroundLevel | None = None) -> Reconstruction:
     """The paper's §2-4 on ground and building points in world coordinates.
 
     Parameters
@@ -338,6 +345,16 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     split : bool
         Without an extent, reconstruct clusters of data farther apart than
         50 m (or 20 voxels) on grids of their own (:mod:`core.clusters`).
+    tiles : TileOptions, optional
+        Cut the domain into tiles reconstructed separately, possibly on Dask
+        workers, and merge them (:mod:`core.tiles`). Blocks come out as a
+        single run makes them.
+    window : GridWindow, optional
+        Internal (:mod:`core.tiles`): the exact grid, a window of a larger
+        lattice; the points are already cropped to it.
+    ground_level : GroundLevel, optional
+        Internal (:mod:`core.tiles`): the ground of the window's columns,
+        taken from the whole domain's.
     """
     report = _reporter(progress, is_cancelled)
     warnings = list(warnings or [])
@@ -368,26 +385,24 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         cluster = split_clusters(np.concatenate([ground, building]), max(50.0 / m, 20 * h))
         if cluster.max() > 0:
             return _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warnings,
-                                         progress, is_cancelled)
+                                         progress, is_cancelled, tiles)
+    if window is None:
+        window = GridWindow.around(ground, building, h, params.extent)
+        if tiles is not None and tiles.cuts(window, params.voxel_size):
+            from .tiles import reconstruct_tiled
 
-    # A global lattice (multiples of the voxel size in world coordinates) with
-    # one ground layer under the lowest point and the paper's empty top row.
-    everything = np.concatenate([ground, building]) if len(building) else ground
-    lower = everything.min(axis=0)
-    upper = everything.max(axis=0)
-    del everything
-    if params.extent is not None:
-        lower[:2] = params.extent[:2]
-        upper[:2] = np.asarray(params.extent[2:]) - 1e-9 * h  # the last column ends at xmax
-    lower = np.floor(lower / h) * h - np.array([0.0, 0.0, h])
-    grid = VoxelGrid.around(np.zeros(3), upper - lower, h, offset=lower, extra_top=1)
-    check_memory(grid.shape, params.voxel_size, params.max_memory)
+            return reconstruct_tiled(ground, building, crs, params, airborne, window, tiles,
+                                     warnings, progress, is_cancelled)
+
+    grid = window.grid(h)
+    check_memory(grid.shape, params.voxel_size, params.max_memory, tile_hint=True)
+    lower = grid.offset
     ground = ground - lower
     building = building - lower
     lap("grid")
 
     report(0.2, "Ground level of every column")
-    level = column_ground_level(grid, ground)
+    level = ground_level if ground_level is not None else column_ground_level(grid, ground)
     top_k = repair_height_field(level.top_k)
     building_cells = _occupied_cells(grid, building)
     lap("ground")
@@ -476,7 +491,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
 
 
 def _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warnings, progress,
-                          is_cancelled) -> Reconstruction:
+                          is_cancelled, tiles) -> Reconstruction:
     """Reconstruct every cluster that has buildings on its own grid; merge."""
     ground_cluster, building_cluster = cluster[:len(ground)], cluster[len(ground):]
     wanted = np.unique(building_cluster)
@@ -492,7 +507,7 @@ def _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warn
             continue
         parts.append(reconstruct_points(own_ground, building[building_cluster == c], crs, params,
                                         airborne=airborne, progress=part_progress,
-                                        is_cancelled=is_cancelled, split=False))
+                                        is_cancelled=is_cancelled, split=False, tiles=tiles))
     if not parts:
         raise UrbanvoxError("No cluster of building points has ground points near it.")
     result = merge_clusters(parts)

@@ -56,7 +56,7 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     summed = np.column_stack([np.bincount(corners, weights=np.repeat(quad_normal[:, c], 4), minlength=n)
                               for c in range(3)])
     length = np.linalg.norm(summed, axis=1, keepdims=True)
-    return np.divide(summed, length, out=np.zeros_like(summed), where=length > 0)
+    return np.divide(summed, length, out=np.zeros(summed.shape), where=length > 0)  # float when no quad
 
 
 def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles) -> np.ndarray:
@@ -66,6 +66,32 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles) ->
     ground_quads = model.closed_surface(GROUND_REGION)
     return np.where(roles.on_block[:, None], node_normals(nodes, block_quads, n),
                     node_normals(nodes, ground_quads, n))
+
+
+def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
+            upper: float = np.inf, spare: int = 8) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k`` nearest data points of every point ``at``, ties broken by coordinates.
+
+    A KD-tree returns points at equal distances in the order it visits them,
+    which depends on all the data it holds; ``spare`` more are asked for and
+    the ``k`` kept are the nearest, then the smallest in (x, y, z). Missing
+    neighbours (beyond ``upper``) have distance ``inf`` and index ``len(data)``.
+
+    Examples
+    --------
+    >>> data = np.array([[1., 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]])
+    >>> dist, idx = nearest(cKDTree(data), data, np.zeros((1, 3)), 2)
+    >>> data[idx[0]].tolist()
+    [[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
+    """
+    k = min(k, len(data))
+    m = min(k + spare, len(data))
+    dist, idx = tree.query(at, k=m, distance_upper_bound=upper, workers=-1)
+    dist = dist.reshape(len(at), m)
+    idx = idx.reshape(len(at), m)
+    point = data[np.minimum(idx, len(data) - 1)]
+    order = np.lexsort((point[..., 2], point[..., 1], point[..., 0], dist), axis=1)[:, :k]
+    return np.take_along_axis(dist, order, axis=1), np.take_along_axis(idx, order, axis=1)
 
 
 def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
@@ -81,10 +107,7 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     flat : ndarray of bool (Q,)
         The neighbourhood spans a plane (not a line or a point).
     """
-    k = min(k, len(data))
-    dist, idx = tree.query(at, k=k, workers=-1)
-    dist = dist.reshape(len(at), k)
-    idx = idx.reshape(len(at), k)
+    dist, idx = nearest(tree, data, at, k)
     x = data[idx]
     w = np.exp(-(dist / sigma) ** 2)
     w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
@@ -146,15 +169,17 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     p = nodes[idx_nodes]
     tree = cKDTree(data)
     radius = max_distance * voxel_size
-    k = min(_NEAR, len(data))
-    dist, near = tree.query(p, k=k, distance_upper_bound=radius, workers=-1)
-    near = near.reshape(len(p), k)
+    dist, near = nearest(tree, data, p, _NEAR, radius)
     found = near < len(data)
-    offset = data[np.where(found, near, 0)] - p[:, None, :]
+    candidate = data[np.where(found, near, 0)]
+    offset = candidate - p[:, None, :]
     along = np.einsum("qkc,qc->qk", offset, normal)
     off_line = np.linalg.norm(offset - along[..., None] * normal[:, None, :], axis=2)
     off_line[~found] = np.inf
-    ranked = np.argsort(off_line, axis=1)[:, :_TRIES]
+    # Ties (data on a lattice) broken by the points' coordinates, not by the
+    # KD-tree's visiting order: a tile then picks the points a whole run picks.
+    ranked = np.lexsort((candidate[..., 2], candidate[..., 1], candidate[..., 0], off_line),
+                        axis=1)[:, :_TRIES]
     cos_max = np.cos(np.radians(max_angle))
     target = p.copy()
     done = ~usable

@@ -43,6 +43,10 @@ FLAG_ADVANCED = _first(
     lambda: Qgis.ProcessingParameterFlag.Advanced,
     lambda: QgsProcessingParameterDefinition.Flag.FlagAdvanced,
 )
+SOURCE_FILE = _first(
+    lambda: Qgis.ProcessingSourceType.File,
+    lambda: QgsProcessing.SourceType.TypeFile,
+)
 FILE_BEHAVIOR = _first(
     lambda: Qgis.ProcessingFileParameterBehavior.File,
     lambda: QgsProcessingParameterFile.Behavior.File,

@@ -28,6 +28,7 @@ from qgis.core import (
     QgsProcessingParameterFeatureSink,
     QgsProcessingParameterFileDestination,
     QgsProcessingParameterNumber,
+    QgsProcessingParameterString,
 )
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
@@ -133,6 +134,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
     SMOOTHING_ITERATIONS = "SMOOTHING_ITERATIONS"
     PROJECT = "PROJECT"
     QUALITY_THRESHOLD = "QUALITY_THRESHOLD"
+    TILE_SIZE = "TILE_SIZE"
+    WORKERS = "WORKERS"
+    SCHEDULER = "SCHEDULER"
     OUTPUT_BLOCKS = "OUTPUT_BLOCKS"
     OUTPUT_FOOTPRINTS = "OUTPUT_FOOTPRINTS"
     OUTPUT_GROUND = "OUTPUT_GROUND"
@@ -218,6 +222,16 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
             type=NUMBER_DOUBLE, defaultValue=0.2, minValue=0.0, maxValue=0.7)
         quality.setFlags(quality.flags() | FLAG_ADVANCED)
         self.addParameter(quality)
+        for parameter in (
+            QgsProcessingParameterNumber(self.TILE_SIZE, self.tr("Tile size (m, 0 = one grid)"),
+                                         type=NUMBER_DOUBLE, defaultValue=0.0, minValue=0.0),
+            QgsProcessingParameterNumber(self.WORKERS, self.tr("Worker processes for the tiles (Dask)"),
+                                         type=NUMBER_INTEGER, defaultValue=0, minValue=0, maxValue=256),
+            QgsProcessingParameterString(self.SCHEDULER, self.tr("Dask scheduler address (default: local workers)"),
+                                         optional=True),
+        ):
+            parameter.setFlags(parameter.flags() | FLAG_ADVANCED)
+            self.addParameter(parameter)
         self.addParameter(
             QgsProcessingParameterFeatureSink(self.OUTPUT_BLOCKS, self.tr("Building blocks (3D surfaces)"), VECTOR_POLYGON)
         )
@@ -264,6 +278,14 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         "QUALITY_THRESHOLD": "Smoothing and projection moves that would leave a face of lower quality "
                              "(inradius / longest edge, 1 for an equilateral triangle, 0.72 for a voxel face) "
                              "are refused.",
+        "TILE_SIZE": "Cut the domain into square tiles of this side (m), each reconstructed on its own grid "
+                     "with a halo around it, then merged: for areas whose grid does not fit in memory, or to "
+                     "use several processes. A block crossing tiles is built whole by one tile; the result is "
+                     "the same as with one grid. 0: one grid.",
+        "WORKERS": "With tiles: the number of worker processes (a local Dask cluster). 0 or 1: the tiles run "
+                   "one after the other in QGIS's process. Needs the Python package dask[distributed].",
+        "SCHEDULER": "With tiles: the address of a running Dask scheduler (tcp://host:8786) whose workers have "
+                     "urbanvox's core importable; overrides the worker count.",
         "OUTPUT_BLOCKS": "One feature per building block: its closed 3-D surface, with height, areas, volumes, "
                          "mesh quality and distance to the data.",
         "OUTPUT_FOOTPRINTS": "One polygon per building block: the ground it covers, with the same fields.",
@@ -316,9 +338,20 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         """Python modules this run needs (subclasses extend)."""
         return BASE_MODULES
 
-    def reconstruct(self, pipeline, parameters, context, params, progress, is_cancelled):
+    def reconstruct(self, pipeline, parameters, context, params, tiles, progress, is_cancelled):
         """Run the core for this algorithm's input and return its result (subclasses)."""
         raise NotImplementedError
+
+    def tileOptions(self, parameters, context):  # noqa: N802
+        """TILE_SIZE, WORKERS and SCHEDULER as core.tiles.TileOptions, or None for one grid."""
+        from ...core.tiles import TileOptions
+
+        size = self.parameterAsDouble(parameters, self.TILE_SIZE, context)
+        if not size or size <= 0:
+            return None
+        scheduler = self.parameterAsString(parameters, self.SCHEDULER, context).strip() or None
+        return TileOptions(tile_size=float(size), workers=int(self.parameterAsInt(parameters, self.WORKERS, context)),
+                           scheduler=scheduler)
 
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802 (QGIS API name)
         missing = [m for m in self.requiredModules(parameters, context) if importlib.util.find_spec(m) is None]
@@ -343,8 +376,13 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
             if message:
                 feedback.setProgressText(str(message))
 
+        tiles = self.tileOptions(parameters, context)
+        if tiles is not None:
+            feedback.pushInfo(self.tr("Tiles of {} m on {}").format(
+                tiles.tile_size, tiles.scheduler or self.tr("{} worker(s)").format(max(1, tiles.workers))))
         try:
-            result = self.reconstruct(pipeline, parameters, context, params, progress, feedback.isCanceled)
+            result = self.reconstruct(pipeline, parameters, context, params, tiles, progress,
+                                      feedback.isCanceled)
         except UrbanvoxError as err:  # includes Cancelled
             raise QgsProcessingException(str(err)) from err
 

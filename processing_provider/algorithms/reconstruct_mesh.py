@@ -47,12 +47,13 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
     def requiredModules(self, parameters, context):  # noqa: N802
         return BASE_MODULES + ("trimesh",)
 
-    def reconstruct(self, pipeline, parameters, context, params, progress, is_cancelled):
+    def reconstruct(self, pipeline, parameters, context, params, tiles, progress, is_cancelled):
         return pipeline.reconstruct_mesh(
             self.inputPath(parameters, self.INPUT, context),
             ground_path=self.inputPath(parameters, self.GROUND, context) or None,
             crs=self.crsArgument(parameters, context),
             params=params,
+            tiles=tiles,
             progress=progress,
             is_cancelled=is_cancelled,
         )

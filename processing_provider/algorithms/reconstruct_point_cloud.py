@@ -1,8 +1,10 @@
 """``urbanvox:reconstructfrompointcloud``: building blocks from a classified LAS/LAZ point cloud."""
 
-from qgis.core import QgsProcessingParameterFile, QgsProcessingParameterString
+import os
 
-from ..compat import FILE_BEHAVIOR
+from qgis.core import QgsProcessingException, QgsProcessingParameterMultipleLayers, QgsProcessingParameterString
+
+from ..compat import SOURCE_FILE
 from .base import BASE_MODULES, UrbanvoxAlgorithm
 
 
@@ -18,7 +20,8 @@ class ReconstructFromPointCloud(UrbanvoxAlgorithm):
 
     def shortHelpString(self):  # noqa: N802 (QGIS API name)
         return self.tr(
-            "<p>Voxel building blocks from a classified LiDAR point cloud (.las or .laz).</p>"
+            "<p>Voxel building blocks from a classified LiDAR point cloud: one or several .las/.laz files "
+            "(a tile collection, as LiDAR is delivered, is read as one cloud).</p>"
             "<p><b>CRS</b>: the coordinate reference system of the points; by default the one in the file "
             "header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.<br>"
             "<b>Ground classes</b> / <b>Building classes</b>: ASPRS classification codes, comma-separated "
@@ -27,9 +30,7 @@ class ReconstructFromPointCloud(UrbanvoxAlgorithm):
 
     def addInputParameters(self):  # noqa: N802
         self.addParameter(
-            QgsProcessingParameterFile(
-                self.INPUT, self.tr("Point cloud (LAS/LAZ)"), behavior=FILE_BEHAVIOR, fileFilter="LAS/LAZ (*.las *.laz)"
-            )
+            QgsProcessingParameterMultipleLayers(self.INPUT, self.tr("Point cloud files (LAS/LAZ)"), SOURCE_FILE)
         )
         self.addCrsParameter("CRS of the points (default: from the file header)", optional=True)
         self.addParameter(
@@ -39,19 +40,33 @@ class ReconstructFromPointCloud(UrbanvoxAlgorithm):
             QgsProcessingParameterString(self.BUILDING_CLASSES, self.tr("Building classes (comma-separated)"), "6")
         )
 
+    def inputPaths(self, parameters, context):  # noqa: N802
+        """The INPUT files, checked to exist and to be LAS/LAZ."""
+        paths = [str(p) for p in self.parameterAsFileList(parameters, self.INPUT, context)]
+        if not paths:
+            raise QgsProcessingException(self.tr("No point cloud file given (INPUT)."))
+        for path in paths:
+            if not os.path.isfile(path):
+                raise QgsProcessingException(self.tr("File not found: {}").format(path))
+            if not path.lower().endswith((".las", ".laz")):
+                raise QgsProcessingException(self.tr("Not a LAS/LAZ file: {}").format(path))
+        return paths
+
     def requiredModules(self, parameters, context):  # noqa: N802
         modules = BASE_MODULES + ("laspy",)
-        if self.parameterAsFile(parameters, self.INPUT, context).lower().endswith(".laz"):
+        files = [str(p) for p in self.parameterAsFileList(parameters, self.INPUT, context)]
+        if any(p.lower().endswith(".laz") for p in files):
             modules += ("lazrs",)
         return modules
 
-    def reconstruct(self, pipeline, parameters, context, params, progress, is_cancelled):
+    def reconstruct(self, pipeline, parameters, context, params, tiles, progress, is_cancelled):
         return pipeline.reconstruct_point_cloud(
-            self.inputPath(parameters, self.INPUT, context),
+            self.inputPaths(parameters, context),
             crs=self.crsArgument(parameters, context),
             ground_classes=self.parameterAsString(parameters, self.GROUND_CLASSES, context),
             building_classes=self.parameterAsString(parameters, self.BUILDING_CLASSES, context),
             params=params,
+            tiles=tiles,
             progress=progress,
             is_cancelled=is_cancelled,
         )

@@ -1,0 +1,491 @@
+"""Tiles: a large domain reconstructed piece by piece, locally or on Dask.
+
+The domain's lattice (:class:`core.grid.GridWindow`) is cut into square tiles
+of whole columns. Each tile is reconstructed on a *window*: its columns plus
+a halo of ``halo`` columns on every side, with the domain's full height, so
+that every step whose outcome depends on the neighbourhood of a voxel
+(ground interpolation, smoothing, projection, crossing control) sees what a
+single run sees. From each window only what the tile *owns* is kept:
+
+* **Ownership of a block.** A block belongs to the tile that holds its
+  *anchor*, the first column of its footprint in (i, j) order (the smallest
+  i, then the smallest j). Every block has one anchor, so exactly one tile
+  owns it, whatever the number of tiles it crosses.
+* **Whole blocks.** A block is kept only when no voxel of it lies in the
+  halo band of a window side that is not a domain side: it is then the same
+  6-connected volume as in a single run. When an owned block reaches that
+  band, the tile is run again on a window grown to the block's columns plus
+  the halo, until its owned blocks are whole.
+* **Ground and air faces** (between ground, air and the domain's outside)
+  are kept by the tile whose columns hold the face's centre.
+
+Pieces are merged on the global lattice: nodes are matched by their lattice
+index (a node of several tiles takes its position from the tile owning a
+block on it), blocks are numbered by their anchor in the order
+``scipy.ndimage.label`` numbers a single run's, and each block's faces,
+nodes, attributes and measures are those of its owning tile. Block counts
+and volumes therefore equal a single run's (to rounding); ground and air
+are the single run's wherever the halo covers what a node depends on.
+
+Tiles run in this process, on a local Dask cluster (``workers=N``) or on
+any Dask scheduler (``scheduler="tcp://host:8786"``, with urbanvox
+importable on its workers). :func:`reconstruct_tile` is a plain function of
+picklable inputs.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import numpy as np
+
+from .blocks import BlockTable
+from .errors import Cancelled, UrbanvoxError
+from .grid import GridWindow, available_memory
+from .ground import GroundLevel, column_ground_level
+from .manifold import repair_height_field
+from .measure import BlockMeasures
+from .surface import SurfaceModel
+
+Columns = tuple[int, int, int, int]  # i0, j0, i1, j1 (half-open), global columns
+
+
+@dataclass(frozen=True)
+class TileOptions:
+    """How to cut the domain and where to run the tiles.
+
+    Attributes
+    ----------
+    tile_size : float
+        Side of a tile (m); rounded to whole voxels.
+    halo : float
+        Width of the halo around a tile (m); at least 12 voxels are used.
+    workers : int
+        Local worker processes (Dask ``LocalCluster``); 0 or 1 runs the tiles
+        one after the other in this process, without Dask.
+    scheduler : str, optional
+        Address of a running Dask scheduler; overrides ``workers``.
+    """
+
+    tile_size: float = 250.0
+    halo: float = 10.0
+    workers: int = 0
+    scheduler: str | None = None
+
+    def columns(self, voxel_size_m: float) -> tuple[int, int]:
+        """Tile side and halo width in columns."""
+        if not np.isfinite(self.tile_size) or self.tile_size <= 0:
+            raise UrbanvoxError(f"The tile size must be a positive number of metres (got {self.tile_size}).")
+        tile = max(1, int(round(self.tile_size / voxel_size_m)))
+        halo = max(12, int(np.ceil(self.halo / voxel_size_m)))
+        return tile, halo
+
+    def cuts(self, window: GridWindow, voxel_size_m: float) -> bool:
+        """Whether the tiles cut this window in more than one piece."""
+        tile, _ = self.columns(voxel_size_m)
+        return window.shape[0] > tile or window.shape[1] > tile
+
+
+@dataclass
+class TileJob:
+    """Everything one tile needs; picklable, no QGIS, sent to a Dask worker."""
+
+    index: int
+    core: Columns
+    window: Columns
+    domain: GridWindow
+    ground: np.ndarray    # world coordinates, cropped to the window
+    building: np.ndarray
+    level: GroundLevel    # the domain's ground level, cropped to the window
+    crs_wkt: str
+    params: "ReconstructionParams"  # noqa: F821 - core.pipeline
+    airborne: bool
+    halo: int
+
+
+@dataclass
+class TilePiece:
+    """What a tile owns, on the global lattice, or the window it must be rerun on."""
+
+    index: int
+    grow: Columns | None = None
+    keys: np.ndarray | None = None        # (N, 3) global lattice index of every node
+    moved: np.ndarray | None = None       # (N, 3) final node positions (domain's local coordinates)
+    priority: np.ndarray | None = None    # (N,) True where an owned block uses the node
+    quads: np.ndarray | None = None
+    regions: np.ndarray | None = None     # owned blocks numbered 1..m in anchor order
+    anchors: np.ndarray | None = None     # (m, 3) i, j of the anchor column, lowest k
+    blocks: BlockTable | None = None      # z relative to the domain
+    measures: BlockMeasures | None = None
+    footprint_columns: np.ndarray | None = None  # (P, 3): piece block id, global i, j
+    warnings: list[str] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def plan_tiles(shape: tuple[int, int, int], tile: int) -> list[Columns]:
+    """Square tiles of ``tile`` columns covering ``nx`` x ``ny`` columns.
+
+    Examples
+    --------
+    >>> plan_tiles((5, 3, 10), 3)
+    [(0, 0, 3, 3), (3, 0, 5, 3)]
+    """
+    nx, ny, _ = shape
+    return [(i, j, min(i + tile, nx), min(j + tile, ny))
+            for i in range(0, nx, tile) for j in range(0, ny, tile)]
+
+
+def reconstruct_tile(job: TileJob, progress: Callable[[float, str], None] | None = None,
+                     is_cancelled: Callable[[], bool] | None = None) -> TilePiece:
+    """Reconstruct one tile's window and keep what the tile owns.
+
+    A window with building points but no ground point (a tile under one
+    large roof) is grown: the ground level comes from the data around it.
+    """
+    import pyproj
+
+    from .pipeline import reconstruct_points
+
+    i0, j0, i1, j1 = job.window
+    if len(job.ground) == 0:
+        nx, ny, _ = job.domain.shape
+        if (i0, j0, i1, j1) == (0, 0, nx, ny):
+            return TilePiece(job.index)
+        step = max(job.halo, (job.core[2] - job.core[0]))
+        return TilePiece(job.index, grow=(max(0, i0 - step), max(0, j0 - step),
+                                          min(nx, i1 + step), min(ny, j1 + step)))
+    crs = pyproj.CRS.from_wkt(job.crs_wkt)
+    result = reconstruct_points(job.ground, job.building, crs, job.params, airborne=job.airborne,
+                                split=False, window=job.domain.columns(i0, j0, i1, j1),
+                                ground_level=job.level, progress=progress, is_cancelled=is_cancelled)
+    return _owned_piece(job, result)
+
+
+def _owned_piece(job: TileJob, result) -> TilePiece:
+    """The blocks anchored in the tile's core (or the window to grow), and
+    the ground and air faces centred in the core."""
+    i0, j0, i1, j1 = job.window
+    ci0, cj0, ci1, cj1 = job.core
+    nx, ny, _ = job.domain.shape
+    halo = job.halo
+    table = result.blocks
+    n = len(table)
+    fc = result.footprint_columns
+    gi, gj = fc[:, 1] + i0, fc[:, 2] + j0
+    ids = fc[:, 0]
+    # Anchor: the first column in (i, j) order; footprint columns are sorted
+    # by block, then i, then j.
+    first = np.searchsorted(ids, table.block_id)
+    anchor_i, anchor_j = gi[first], gj[first]
+    owned = (anchor_i >= ci0) & (anchor_i < ci1) & (anchor_j >= cj0) & (anchor_j < cj1)
+    lo_i, hi_i = _per_block(ids, gi, n)
+    lo_j, hi_j = _per_block(ids, gj, n)
+    cut = (((lo_i < i0 + halo) & (i0 > 0)) | ((hi_i >= i1 - halo) & (i1 < nx))
+           | ((lo_j < j0 + halo) & (j0 > 0)) | ((hi_j >= j1 - halo) & (j1 < ny)))
+    if (owned & cut).any():
+        sel = owned & cut
+        grow = (max(0, min(i0, int(lo_i[sel].min()) - halo)), max(0, min(j0, int(lo_j[sel].min()) - halo)),
+                min(nx, max(i1, int(hi_i[sel].max()) + 1 + halo)), min(ny, max(j1, int(hi_j[sel].max()) + 1 + halo)))
+        return TilePiece(job.index, grow=grow)
+
+    h = result.grid.voxel_size
+    surface, mesh = result.surface, result.mesh
+    keys = np.rint(surface.nodes / h).astype(np.int64)  # local coordinates are the domain's
+    # Owned blocks, numbered in anchor order (scipy.ndimage.label's order in a
+    # single run: the first voxel in (i, j, k) raster order).
+    own_ids = table.block_id[owned]
+    order = np.lexsort((table.ground_z[owned], anchor_j[owned], anchor_i[owned]))
+    renumber = np.zeros(n + 1, dtype=np.int32)
+    renumber[own_ids[order]] = np.arange(1, len(own_ids) + 1, dtype=np.int32)
+    regions = surface.regions
+    positive = np.where(regions > 0, regions, 0)
+    block_face = (regions > 0).any(axis=1)
+    keep_block = renumber[positive].any(axis=1)
+    centre = keys[surface.quads].mean(axis=1)
+    in_core = ((centre[:, 0] >= ci0) & ((centre[:, 0] < ci1) | (ci1 == nx))
+               & (centre[:, 1] >= cj0) & ((centre[:, 1] < cj1) | (cj1 == ny)))
+    keep = keep_block | (~block_face & in_core)
+    quads = surface.quads[keep]
+    used, inverse = np.unique(quads, return_inverse=True)
+    new_regions = np.where(regions[keep] > 0, renumber[positive[keep]], regions[keep])
+    priority = np.zeros(len(surface.nodes), dtype=bool)
+    priority[surface.quads[keep_block].ravel()] = True
+
+    rows = np.flatnonzero(owned)[order]
+    blocks = table.select(rows)
+    measures = BlockMeasures(**{name: getattr(result.measures, name)[own_ids[order] - 1]
+                                for name in BlockMeasures.__dataclass_fields__})
+    fc_keep = renumber[ids] > 0
+    columns = np.column_stack([renumber[ids[fc_keep]], gi[fc_keep], gj[fc_keep]])
+    columns = columns[np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0]))]
+    return TilePiece(
+        job.index, keys=keys[used], moved=mesh.nodes[used], priority=priority[used],
+        quads=inverse.reshape(quads.shape).astype(np.int64), regions=new_regions.astype(np.int32),
+        anchors=np.column_stack([anchor_i[rows], anchor_j[rows]]), blocks=blocks, measures=measures,
+        footprint_columns=columns, warnings=list(result.warnings), timings=dict(result.timings))
+
+
+def _per_block(ids: np.ndarray, values: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    lo = np.full(n + 1, np.iinfo(np.int64).max)
+    hi = np.full(n + 1, np.iinfo(np.int64).min)
+    np.minimum.at(lo, ids, values)
+    np.maximum.at(hi, ids, values)
+    return lo[1:], hi[1:]
+
+
+def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float):
+    """One :class:`~core.pipeline.Reconstruction` body from the tiles' pieces.
+
+    Returns the grid, block table, surface, mesh, measures and footprint
+    columns (the caller adds CRS, warnings and statistics).
+    """
+    pieces = [p for p in pieces if p.keys is not None]
+    h = voxel_size
+    grid = domain.grid(h)
+    if not pieces:
+        raise UrbanvoxError("No tile holds data.")
+    # Global block numbers: sort every owned block by its anchor.
+    anchors = np.concatenate([p.anchors for p in pieces])
+    lowest = np.concatenate([p.blocks.ground_z for p in pieces])
+    order = np.lexsort((lowest, anchors[:, 1], anchors[:, 0]))
+    global_id = np.empty(len(order), dtype=np.int32)
+    global_id[order] = np.arange(1, len(order) + 1, dtype=np.int32)
+
+    keys, moved, first_rank, quads, regions, columns = [], [], [], [], [], []
+    n_nodes = n_blocks = 0
+    for rank, p in enumerate(pieces):
+        renumber = np.concatenate([[0], global_id[n_blocks:n_blocks + len(p.blocks)]]).astype(np.int32)
+        r = p.regions.copy()
+        r[r > 0] = renumber[r[r > 0]]
+        regions.append(r)
+        quads.append(p.quads + n_nodes)
+        keys.append(p.keys)
+        moved.append(p.moved)
+        # Nodes of owned blocks first, then by tile: a block's nodes come from its tile.
+        first_rank.append(np.where(p.priority, rank, rank + len(pieces)))
+        c = p.footprint_columns.copy()
+        c[:, 0] = renumber[c[:, 0]]
+        columns.append(c)
+        n_nodes += len(p.keys)
+        n_blocks += len(p.blocks)
+    keys = np.concatenate(keys)
+    rank = np.concatenate(first_rank)
+    nx1, ny1 = domain.shape[0] + 1, domain.shape[1] + 1
+    flat = keys[:, 0] + nx1 * (keys[:, 1] + ny1 * keys[:, 2])
+    by_rank = np.lexsort((rank, flat))
+    unique_flat, start, inverse_sorted = np.unique(flat[by_rank], return_index=True, return_inverse=True)
+    chosen = by_rank[start]
+    node_of = np.empty(len(flat), dtype=np.int64)
+    node_of[by_rank] = inverse_sorted.ravel()
+    nodes = keys[chosen] * h
+    final = np.concatenate(moved)[chosen]
+    all_quads = node_of[np.concatenate(quads)]
+    all_regions = np.concatenate(regions)
+    surface = SurfaceModel(nodes.astype(np.float64), all_quads, all_regions)
+    mesh = SurfaceModel(final, all_quads, all_regions)
+
+    tables = [p.blocks for p in pieces]
+    table = BlockTable(**{name: np.concatenate([getattr(t, name) for t in tables])
+                          for name in BlockTable.__dataclass_fields__})
+    measures = BlockMeasures(**{name: np.concatenate([getattr(p.measures, name) for p in pieces])
+                                for name in BlockMeasures.__dataclass_fields__})
+    by_id = np.argsort(global_id)
+    table = table.select(by_id)
+    table.block_id = np.arange(1, len(by_id) + 1, dtype=np.int64)
+    measures = BlockMeasures(**{name: getattr(measures, name)[by_id]
+                                for name in BlockMeasures.__dataclass_fields__})
+    columns = np.concatenate(columns)
+    columns = columns[np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0]))]
+    return grid, table, surface, mesh, measures, columns
+
+
+def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, airborne: bool,
+                      domain: GridWindow, options: TileOptions, warnings: list[str],
+                      progress: Callable[[float, str], None] | None,
+                      is_cancelled: Callable[[], bool] | None):
+    """Reconstruct ``domain`` tile by tile (see the module) and merge."""
+    from .crs import metres_per_unit
+    from .pipeline import Reconstruction
+
+    start = time.perf_counter()
+    m = metres_per_unit(crs)
+    h = params.voxel_size / m
+    tile, halo = options.columns(params.voxel_size)
+    cores = plan_tiles(domain.shape, tile)
+    crop = _Cropper(ground, building, domain, h)
+    nx, ny, _ = domain.shape
+    workers = max(1, int(options.workers or 1)) if not options.scheduler else None
+    # Several tiles at once share the memory.
+    budget = params.max_memory or available_memory()
+    tile_params = replace(params, extent=None, max_memory=int(budget / (workers or 1)))
+
+    # The ground level is a 2-D field, small next to the grid: computed once for
+    # the domain, so that every tile sees the single run's ground (its gaps
+    # under large roofs are interpolated from rims that may lie in other tiles).
+    level = column_ground_level(domain.grid(h), ground - domain.lower)
+    level = GroundLevel(level.z, repair_height_field(level.top_k), level.observed)
+
+    def job(index: int, window: Columns) -> TileJob:
+        g, b = crop(window)
+        i0, j0, i1, j1 = window
+        cut = (slice(i0, i1), slice(j0, j1))
+        return TileJob(index, cores[index], window, domain, g, b,
+                       GroundLevel(level.z[cut], level.top_k[cut], level.observed[cut]),
+                       crs.to_wkt(), tile_params, airborne, halo)
+
+    def initial(index: int) -> Columns:
+        i0, j0, i1, j1 = cores[index]
+        return (max(0, i0 - halo), max(0, j0 - halo), min(nx, i1 + halo), min(ny, j1 + halo))
+
+    pending = [job(n, initial(n)) for n in range(len(cores))]
+    done: list[TilePiece] = []
+    regrown = 0
+    with _Runner(options) as runner:
+        for piece in runner.run(pending, is_cancelled, progress, len(cores)):
+            if piece.grow is not None:
+                regrown += 1
+                runner.submit(job(piece.index, piece.grow))
+            else:
+                done.append(piece)
+    done.sort(key=lambda p: p.index)
+    grid, table, surface, mesh, measures, columns = merge_pieces(done, domain, h)
+    timings: dict[str, float] = {}
+    for p in done:
+        for stage, seconds in p.timings.items():
+            timings[stage] = timings.get(stage, 0.0) + seconds
+    timings["tiles_wall"] = time.perf_counter() - start
+    for p in done:  # a tile with no block of its own says so: not news for the whole
+        warnings.extend(w for w in p.warnings if w not in warnings and w != "No building block in the result.")
+    warnings.append(f"Reconstructed in {len(cores)} tiles of {tile * h * m:g} m "
+                    f"({regrown} rerun on a larger window for blocks crossing their halo).")
+    if len(table) == 0 and "No building block in the result." not in warnings:
+        warnings.append("No building block in the result.")
+    if progress is not None:
+        progress(1.0, f"{len(table)} blocks")
+    return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface, mesh=mesh, measures=measures,
+                          footprint_columns=columns, warnings=warnings, timings=timings,
+                          stats={"tiles": len(cores), "tiles_rerun": regrown,
+                                 "workers": options.scheduler or workers,
+                                 "n_points": {"ground": int(len(ground)), "building": int(len(building))},
+                                 "n_voxels": int(grid.n_voxels), "n_faces": int(len(surface.quads))})
+
+
+class _Cropper:
+    """The points of a window of columns, found through one sort by column."""
+
+    def __init__(self, ground: np.ndarray, building: np.ndarray, domain: GridWindow, h: float):
+        self.sets = []
+        for points in (ground, building):
+            ij = np.floor((points[:, :2] - domain.lower[:2]) / h).astype(np.int64)
+            np.clip(ij, 0, np.asarray(domain.shape[:2]) - 1, out=ij)
+            order = np.argsort(ij[:, 0], kind="stable")
+            self.sets.append((points[order], ij[order, 0], ij[order, 1]))
+
+    def __call__(self, window: Columns) -> tuple[np.ndarray, np.ndarray]:
+        i0, j0, i1, j1 = window
+        out = []
+        for points, i, j in self.sets:
+            a, b = np.searchsorted(i, [i0, i1])
+            inside = (j[a:b] >= j0) & (j[a:b] < j1)
+            out.append(points[a:b][inside])
+        return out[0], out[1]
+
+
+class _Runner:
+    """Runs tile jobs in this process or on Dask, yielding pieces as they finish."""
+
+    def __init__(self, options: TileOptions):
+        self.options = options
+        self.client = None
+        self.cluster = None
+        self.queue: list = []
+        self.futures: list = []
+
+    def __enter__(self) -> "_Runner":
+        o = self.options
+        if o.scheduler or (o.workers or 0) > 1:
+            try:
+                from dask.distributed import Client, LocalCluster
+            except ImportError as exc:
+                raise UrbanvoxError(
+                    "Tiles on several workers need Dask: "
+                    f"{_python()} -m pip install 'dask[distributed]' (or set the workers to 0).") from exc
+            if o.scheduler:
+                self.client = Client(o.scheduler)
+            else:
+                _use_python_for_workers()
+                self.cluster = LocalCluster(n_workers=int(o.workers), threads_per_worker=1,
+                                            processes=True, dashboard_address=None)
+                self.client = Client(self.cluster)
+        return self
+
+    def __exit__(self, *exc) -> None:
+        for future in self.futures:
+            future.cancel()
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+    def submit(self, job: TileJob) -> None:
+        if self.client is None:
+            self.queue.append(job)
+        else:
+            self.futures.append(self.client.submit(reconstruct_tile, job, pure=False))
+
+    def run(self, jobs: list[TileJob], is_cancelled, progress, total: int):
+        for job in jobs:
+            self.submit(job)
+        finished = 0
+        while self.queue or self.futures:
+            if is_cancelled is not None and is_cancelled():
+                raise Cancelled()
+            if self.client is None:
+                job = self.queue.pop(0)
+
+                def tile_progress(fraction: float, message: str, done: int = finished) -> None:
+                    if progress is not None:
+                        progress((done + fraction) / total, f"Tile {done + 1}/{total}: {message}")
+
+                piece = reconstruct_tile(job, tile_progress, is_cancelled)
+            else:
+                from dask.distributed import wait
+
+                try:  # short waits, so that a cancel is seen
+                    ready = wait(self.futures, timeout=0.5, return_when="FIRST_COMPLETED").done
+                except TimeoutError:
+                    continue
+                future = next(iter(ready))
+                self.futures.remove(future)
+                piece = future.result()
+            if piece.grow is None:
+                finished += 1
+                if progress is not None:
+                    progress(finished / total, f"Tile {finished}/{total} done")
+            yield piece
+
+
+def _python() -> str:
+    """The Python interpreter to run workers with: this Python's own.
+
+    Inside QGIS ``sys.executable`` is not the interpreter QGIS embeds (it is
+    QGIS, or whatever ``python3`` comes first on PATH), so the interpreter of
+    ``sys.exec_prefix`` and this version is preferred.
+    """
+    version = f"python{sys.version_info[0]}.{sys.version_info[1]}"
+    for candidate in (os.path.join(sys.exec_prefix, "bin", version),
+                      os.path.join(sys.base_exec_prefix, "bin", version)):
+        if os.access(candidate, os.X_OK):
+            return candidate
+    return sys.executable or shutil.which("python3") or "python3"
+
+
+def _use_python_for_workers() -> None:
+    """Spawn Dask's worker processes with this Python (see :func:`_python`)."""
+    import multiprocessing
+
+    multiprocessing.set_executable(_python())
