@@ -1,0 +1,150 @@
+"""Tiled runs (core.tiles) give what a single run gives: the same blocks, the
+same per-block volumes, closed and conforming ground and air across tiles."""
+import sys
+
+import numpy as np
+import pytest
+
+from core.errors import Cancelled, UrbanvoxError
+from core.grid import GridWindow, check_memory
+from core.pipeline import ReconstructionParams, reconstruct_point_cloud
+from core.surface import AIR_REGION, GROUND_REGION
+from core.tiles import TileOptions, initial_windows, plan_tiles
+from core.topology import check_surface
+
+
+def assert_same_blocks(single, tiled, rtol=1e-6):
+    """Same count, same numbering, same voxel and mesh measures, same mesh nodes."""
+    assert len(tiled.blocks) == len(single.blocks) > 0
+    a, b = single.block_rows(), tiled.block_rows()
+    for key in ("volume", "footprint_area", "height", "n_voxels", "surface_area"):
+        assert [r[key] for r in a] == [r[key] for r in b], key
+    for key in ("mesh_volume", "mesh_area", "roof_area", "facade_area"):
+        x = np.array([r[key] for r in a])
+        y = np.array([r[key] for r in b])
+        assert np.all(np.abs(x - y) <= rtol * np.abs(x)), (key, np.max(np.abs(x - y) / np.abs(x)))
+    np.testing.assert_array_equal(single.footprint_columns, tiled.footprint_columns)
+
+
+def assert_closed(result):
+    mesh = result.mesh.triangulated()
+    for region in [int(b) for b in result.blocks.block_id] + [GROUND_REGION, AIR_REGION]:
+        report = check_surface(mesh.closed_surface(region))
+        assert report.ok, (region, report)
+
+
+def same_nodes(single, tiled):
+    """Distance between the final positions of the nodes both models share (by lattice index)."""
+    h = single.grid.voxel_size
+    np.testing.assert_allclose(single.grid.offset, tiled.grid.offset)
+    dims = np.asarray(single.grid.shape) + 2
+
+    def keyed(result):
+        key = np.rint(result.surface.nodes / h).astype(np.int64)
+        flat = key[:, 0] + dims[0] * (key[:, 1] + dims[1] * key[:, 2])
+        order = np.argsort(flat)
+        return flat[order], result.mesh.nodes[order]
+
+    fa, pa = keyed(single)
+    fb, pb = keyed(tiled)
+    np.testing.assert_array_equal(fa, fb)
+    return np.abs(pa - pb).max()
+
+
+@pytest.fixture(scope="module")
+def montpellier(shared_data):
+    files = sorted((shared_data / "montpellier_ign").glob("*.laz"))
+    assert len(files) == 6
+    params = ReconstructionParams(voxel_size=1.0)
+    single = reconstruct_point_cloud(files, params=params)
+    tiled = reconstruct_point_cloud(files, params=params, tiles=TileOptions(tile_size=50.0))
+    return single, tiled
+
+
+@pytest.mark.slow
+def test_montpellier_six_files_tiled_equals_single(montpellier):
+    single, tiled = montpellier
+    assert tiled.stats["tiles"] == 12  # 151 x 101 columns in 50 m tiles
+    assert_same_blocks(single, tiled)
+    # Every node, ground and air included, is where the single run puts it.
+    assert same_nodes(single, tiled) < 1e-9
+    assert len(tiled.mesh.quads) == len(single.mesh.quads)
+
+
+@pytest.mark.slow
+def test_montpellier_tiled_regions_are_closed_across_tiles(montpellier):
+    _, tiled = montpellier
+    assert_closed(tiled)
+
+
+@pytest.mark.slow
+def test_district_tiled_on_two_dask_workers(district):
+    pytest.importorskip("dask.distributed")
+    params = ReconstructionParams(voxel_size=1.0, extent=district.district.extent)
+    single = reconstruct_point_cloud(district.laz, params=params)
+    tiled = reconstruct_point_cloud(district.laz, params=params,
+                                    tiles=TileOptions(tile_size=100.0, workers=2))
+    assert tiled.stats["workers"] == 2 and tiled.stats["tiles"] == 9
+    assert len(tiled.blocks) == len(district.expected_blocks)
+    assert_same_blocks(single, tiled)
+    assert_closed(tiled)
+
+
+def test_a_block_crossing_tiles_is_owned_by_one_tile(district):
+    # 40 m tiles cut most of the district's blocks; each must come out once, whole.
+    params = ReconstructionParams(voxel_size=2.0, extent=district.district.extent, project=False)
+    single = reconstruct_point_cloud(district.laz, params=params)
+    tiled = reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=40.0))
+    assert tiled.stats["tiles"] >= 9
+    assert_same_blocks(single, tiled, rtol=1e-9)
+    assert same_nodes(single, tiled) < 1e-9
+
+
+def test_tiles_report_progress_in_order_and_honour_cancel(district):
+    seen = []
+    params = ReconstructionParams(voxel_size=2.0, extent=district.district.extent)
+    reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=100.0),
+                            progress=lambda f, m: seen.append((f, m)))
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert any(m.startswith("Tile 9/9") for _, m in seen)
+    calls = []
+    with pytest.raises(Cancelled):
+        reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=100.0),
+                                is_cancelled=lambda: calls.append(1) or len(calls) > 40)
+
+
+def test_workers_without_dask_say_what_to_install(district, monkeypatch):
+    monkeypatch.setitem(sys.modules, "dask", None)
+    monkeypatch.setitem(sys.modules, "dask.distributed", None)
+    params = ReconstructionParams(voxel_size=2.0, extent=district.district.extent)
+    with pytest.raises(UrbanvoxError, match=r"pip install 'dask\[distributed\]'"):
+        reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=100.0, workers=2))
+
+
+def test_bad_tile_size_is_refused(district):
+    with pytest.raises(UrbanvoxError, match="tile size"):
+        reconstruct_point_cloud(district.laz, params=ReconstructionParams(voxel_size=2.0),
+                                tiles=TileOptions(tile_size=-5.0))
+
+
+def test_memory_guard_suggests_a_tile_size():
+    with pytest.raises(UrbanvoxError, match=r"tiles of at most (\d+) \(TILE_SIZE\)") as error:
+        check_memory((20000, 20000, 100), 1.0, available=4 * 2**30, tile_hint=True)
+    side = float(error.value.args[0].split("tiles of at most ")[1].split(" ")[0])
+    # The suggested tile, with a halo of 12 voxels on each side, fits.
+    check_memory((int(side) + 24, int(side) + 24, 100), 1.0, available=4 * 2**30)
+
+
+def test_plan_and_initial_windows_cover_the_domain():
+    window = GridWindow(np.zeros(3), (95, 40, 10))
+    cores = plan_tiles(window.shape, 30)
+    covered = np.zeros((95, 40), int)
+    for i0, j0, i1, j1 in cores:
+        covered[i0:i1, j0:j1] += 1
+    assert (covered == 1).all()
+    mask = np.zeros((95, 40), bool)
+    mask[25:70, 10:12] = True  # a long block anchored in the first tile
+    windows = initial_windows(cores, 30, 4, window, mask)
+    assert windows[0][2] >= 70 + 2 + 4  # the whole block, the two dilated columns and the halo
+    assert windows[-1] == (86, 26, 95, 40)  # untouched: core and halo
