@@ -356,8 +356,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
         for stage, seconds in p.timings.items():
             timings[stage] = timings.get(stage, 0.0) + seconds
     timings["tiles_wall"] = time.perf_counter() - start
-    for p in done:  # a tile with no block of its own says so: not news for the whole
-        warnings.extend(w for w in p.warnings if w not in warnings and w != "No building block in the result.")
+    warnings.extend(_tile_warnings(done))
     warnings.append(f"Reconstructed in {len(cores)} tiles of {tile * h * m:g} m "
                     f"({regrown} rerun on a larger window for blocks crossing their halo).")
     if len(table) == 0 and "No building block in the result." not in warnings:
@@ -370,6 +369,25 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
                                  "workers": options.scheduler or workers,
                                  "n_points": {"ground": int(len(ground)), "building": int(len(building))},
                                  "n_voxels": int(grid.n_voxels), "n_faces": int(len(surface.quads))})
+
+
+def _tile_warnings(pieces: list[TilePiece]) -> list[str]:
+    """The tiles' warnings, each kind once: counts of a tile include its halo,
+    so a warning several tiles give is reported with the number of tiles."""
+    import re
+
+    kinds: dict[str, list[str]] = {}
+    for piece in pieces:
+        for text in piece.warnings:
+            if text != "No building block in the result.":  # a tile owning no block
+                kinds.setdefault(re.sub(r"[\d.,]+", "#", text), []).append(text)
+    out = []
+    for texts in kinds.values():
+        if len(texts) == 1:
+            out.append(texts[0])
+        else:
+            out.append(f"{texts[0].rstrip('.')} (said by {len(texts)} tiles, this is the first; a tile counts its halo too).")
+    return out
 
 
 def _monotone(progress: Callable[[float, str], None] | None) -> Callable[[float, str], None] | None:
