@@ -9,7 +9,8 @@ from qgis_helpers import gpkg_outputs
 REPO_ROOT = Path(__file__).resolve().parents[2]
 ALGORITHMS = {"urbanvox:reconstructfrompointcloud", "urbanvox:reconstructfrommesh"}
 SHARED = ["VOXEL_SIZE", "MIN_HEIGHT", "MIN_FOOTPRINT", "MIN_VOLUME", "EXTENT", "SMOOTHING_ITERATIONS", "PROJECT",
-          "QUALITY_THRESHOLD", "OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "OUTPUT_GROUND", "OUTPUT_MESH"]
+          "QUALITY_THRESHOLD", "TILE_SIZE", "WORKERS", "SCHEDULER", "OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "OUTPUT_GROUND",
+          "OUTPUT_MESH"]
 
 
 def algorithm(alg_id):
@@ -85,7 +86,14 @@ def test_point_cloud_parameters(urbanvox_plugin):
     from qgis.core import QgsProcessingParameterDefinition
 
     alg = algorithm("urbanvox:reconstructfrompointcloud")
-    assert alg.parameterDefinition("INPUT").fileFilter() == "LAS/LAZ (*.las *.laz)"
+    from qgis.core import QgsProcessing
+
+    # Several files at once (a tile collection): a multiple-input parameter of files.
+    assert alg.parameterDefinition("INPUT").type() == "multilayer"
+    assert alg.parameterDefinition("INPUT").layerType() == QgsProcessing.SourceType.TypeFile
+    for name in ("TILE_SIZE", "WORKERS", "SCHEDULER"):
+        assert alg.parameterDefinition(name).flags() & QgsProcessingParameterDefinition.Flag.FlagAdvanced
+    assert alg.parameterDefinition("TILE_SIZE").defaultValue() == 0
     assert alg.parameterDefinition("CRS").flags() & QgsProcessingParameterDefinition.Flag.FlagOptional
     assert alg.parameterDefinition("GROUND_CLASSES").defaultValue() == "2"
     assert alg.parameterDefinition("BUILDING_CLASSES").defaultValue() == "6"

@@ -88,3 +88,22 @@ def test_zurich_lod2_mesh(qgis_app, qgis_process, shared_data, tmp_path):
     check_layers(results, gpkg, "EPSG:2056")
     assert 46 <= results["BLOCK_COUNT"] <= 52
     assert 140e3 <= results["TOTAL_VOLUME"] <= 200e3
+
+
+def test_montpellier_six_files_tiled_on_two_workers(qgis_app, qgis_process, shared_data, tmp_path):
+    """The six tiles as six INPUT values, once on one grid and once in 50 m tiles on two Dask
+    workers: the same blocks with the same volumes."""
+    files = sorted((shared_data / "montpellier_ign").glob("*.laz"))
+    assert len(files) == 6
+    runs = {}
+    for name, extra in (("single", []), ("tiled", ["TILE_SIZE=50", "WORKERS=2"])):
+        gpkg = tmp_path / f"{name}.gpkg"
+        proc = qgis_process("--json", "run", "urbanvox:reconstructfrompointcloud", "--",
+                            *(f"INPUT={f}" for f in files), *extra, *(f"{k}={v}" for k, v in gpkg_outputs(gpkg).items()))
+        assert proc.returncode == 0, (proc.stdout + proc.stderr)[-3000:]
+        _, features = read_layer(gpkg, "blocks")
+        runs[name] = sorted((f["block_id"], f["volume"], f["mesh_volume"]) for f in features)
+    assert len(runs["single"]) == 10
+    assert [r[:2] for r in runs["tiled"]] == [r[:2] for r in runs["single"]]
+    for (_, _, a), (_, _, b) in zip(runs["single"], runs["tiled"]):
+        assert abs(a - b) <= 1e-6 * abs(a)
