@@ -8,8 +8,8 @@
       <translation>urbanvox: Voxel-Gebäudeblöcke aus Punktwolken und Netzen</translation>
     </message>
     <message>
-      <source>Point cloud (LAS/LAZ)</source>
-      <translation>Punktwolke (LAS/LAZ)</translation>
+      <source>Point cloud files (LAS/LAZ)</source>
+      <translation>Punktwolkendateien (LAS/LAZ)</translation>
     </message>
     <message>
       <source>CRS of the points (default: from the file header)</source>
@@ -54,6 +54,18 @@
     <message>
       <source>Minimum face quality (inradius / longest edge, 1 = equilateral)</source>
       <translation>Minimale Flächenqualität (Inkreisradius / längste Kante, 1 = gleichseitig)</translation>
+    </message>
+    <message>
+      <source>Tile size (m, 0 = one grid)</source>
+      <translation>Kachelgröße (m, 0 = ein Gitter)</translation>
+    </message>
+    <message>
+      <source>Worker processes for the tiles (Dask)</source>
+      <translation>Worker-Prozesse für die Kacheln (Dask)</translation>
+    </message>
+    <message>
+      <source>Dask scheduler address (default: local workers)</source>
+      <translation>Adresse eines Dask-Schedulers (Standard: lokale Worker)</translation>
     </message>
     <message>
       <source>Building blocks (3D surfaces)</source>
@@ -136,6 +148,18 @@
       <translation>Glättungs- und Projektionsschritte, die eine Fläche geringerer Qualität hinterlassen würden (Inkreisradius / längste Kante, 1 für ein gleichseitiges Dreieck, 0,72 für eine Voxelfläche), werden abgelehnt.</translation>
     </message>
     <message>
+      <source>Cut the domain into square tiles of this side (m), each reconstructed on its own grid with a halo around it, then merged: for areas whose grid does not fit in memory, or to use several processes. A block crossing tiles is built whole by one tile; the result is the same as with one grid. 0: one grid.</source>
+      <translation>Teilt das Gebiet in quadratische Kacheln dieser Seitenlänge (m), jede auf einem eigenen Gitter mit einem Rand rekonstruiert und danach zusammengeführt: für Gebiete, deren Gitter nicht in den Speicher passt, oder um mehrere Prozesse zu nutzen. Ein Block über mehrere Kacheln wird von einer Kachel ganz gebaut; das Ergebnis ist dasselbe wie mit einem Gitter. 0: ein Gitter.</translation>
+    </message>
+    <message>
+      <source>With tiles: the number of worker processes (a local Dask cluster). 0 or 1: the tiles run one after the other in QGIS's process. Needs the Python package dask[distributed].</source>
+      <translation>Mit Kacheln: die Zahl der Worker-Prozesse (ein lokaler Dask-Cluster). 0 oder 1: die Kacheln laufen nacheinander im QGIS-Prozess. Benötigt das Python-Paket dask[distributed].</translation>
+    </message>
+    <message>
+      <source>With tiles: the address of a running Dask scheduler (tcp://host:8786) whose workers have urbanvox's core importable; overrides the worker count.</source>
+      <translation>Mit Kacheln: die Adresse eines laufenden Dask-Schedulers (tcp://host:8786), dessen Worker den Kern von urbanvox importieren können; ersetzt die Zahl der Worker.</translation>
+    </message>
+    <message>
       <source>One feature per building block: its closed 3-D surface, with height, areas, volumes, mesh quality and distance to the data.</source>
       <translation>Ein Objekt je Gebäudeblock: seine geschlossene 3D-Oberfläche, mit Höhe, Flächen, Volumen, Netzqualität und Abstand zu den Daten.</translation>
     </message>
@@ -184,8 +208,8 @@
       <translation>Gebäudeblöcke aus einer Punktwolke rekonstruieren</translation>
     </message>
     <message>
-      <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud (.las or .laz).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
-      <translation>&lt;p&gt;Voxel-Gebäudeblöcke aus einer klassifizierten LiDAR-Punktwolke (.las oder .laz).&lt;/p&gt;&lt;p&gt;&lt;b&gt;KBS&lt;/b&gt;: das Koordinatenbezugssystem der Punkte; standardmäßig das aus dem Dateikopf. Erforderlich, wenn der Kopf keines enthält (z. B. AHN3-Kacheln: EPSG:28992); es ersetzt das des Kopfes.&lt;br&gt;&lt;b&gt;Bodenklassen&lt;/b&gt; / &lt;b&gt;Gebäudeklassen&lt;/b&gt;: ASPRS-Klassifizierungscodes, durch Kommas getrennt (Boden 2, Gebäude 6 in Standard-LAS). Punkte anderer Klassen werden ignoriert.&lt;/p&gt;</translation>
+      <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud: one or several .las/.laz files (a tile collection, as LiDAR is delivered, is read as one cloud).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Voxel-Gebäudeblöcke aus einer klassifizierten LiDAR-Punktwolke: eine oder mehrere .las/.laz-Dateien (eine Kachelsammlung, wie LiDAR geliefert wird, wird als eine Wolke gelesen).&lt;/p&gt;&lt;p&gt;&lt;b&gt;KBS&lt;/b&gt;: das Koordinatenbezugssystem der Punkte; standardmäßig das aus dem Dateikopf. Erforderlich, wenn der Kopf keines enthält (z. B. AHN3-Kacheln: EPSG:28992); es ersetzt das des Kopfes.&lt;br&gt;&lt;b&gt;Bodenklassen&lt;/b&gt; / &lt;b&gt;Gebäudeklassen&lt;/b&gt;: ASPRS-Klassifizierungscodes, durch Kommas getrennt (Boden 2, Gebäude 6 in Standard-LAS). Punkte anderer Klassen werden ignoriert.&lt;/p&gt;</translation>
     </message>
   </context>
 </TS>

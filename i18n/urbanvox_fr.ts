@@ -8,8 +8,8 @@
       <translation>urbanvox : îlots bâtis voxelisés à partir de nuages de points et de maillages</translation>
     </message>
     <message>
-      <source>Point cloud (LAS/LAZ)</source>
-      <translation>Nuage de points (LAS/LAZ)</translation>
+      <source>Point cloud files (LAS/LAZ)</source>
+      <translation>Fichiers de nuage de points (LAS/LAZ)</translation>
     </message>
     <message>
       <source>CRS of the points (default: from the file header)</source>
@@ -54,6 +54,18 @@
     <message>
       <source>Minimum face quality (inradius / longest edge, 1 = equilateral)</source>
       <translation>Qualité minimale des faces (rayon inscrit / plus grand côté, 1 = équilatéral)</translation>
+    </message>
+    <message>
+      <source>Tile size (m, 0 = one grid)</source>
+      <translation>Taille des tuiles (m, 0 = une seule grille)</translation>
+    </message>
+    <message>
+      <source>Worker processes for the tiles (Dask)</source>
+      <translation>Processus de calcul pour les tuiles (Dask)</translation>
+    </message>
+    <message>
+      <source>Dask scheduler address (default: local workers)</source>
+      <translation>Adresse d'un ordonnanceur Dask (par défaut : processus locaux)</translation>
     </message>
     <message>
       <source>Building blocks (3D surfaces)</source>
@@ -136,6 +148,18 @@
       <translation>Les déplacements de lissage et de projection qui laisseraient une face de moindre qualité (rayon inscrit / plus grand côté, 1 pour un triangle équilatéral, 0,72 pour une face de voxel) sont refusés.</translation>
     </message>
     <message>
+      <source>Cut the domain into square tiles of this side (m), each reconstructed on its own grid with a halo around it, then merged: for areas whose grid does not fit in memory, or to use several processes. A block crossing tiles is built whole by one tile; the result is the same as with one grid. 0: one grid.</source>
+      <translation>Découpe le domaine en tuiles carrées de ce côté (m), chacune reconstruite sur sa propre grille avec une marge autour, puis fusionnées : pour les zones dont la grille ne tient pas en mémoire, ou pour utiliser plusieurs processus. Un îlot à cheval sur plusieurs tuiles est construit en entier par une seule ; le résultat est celui d'une seule grille. 0 : une seule grille.</translation>
+    </message>
+    <message>
+      <source>With tiles: the number of worker processes (a local Dask cluster). 0 or 1: the tiles run one after the other in QGIS's process. Needs the Python package dask[distributed].</source>
+      <translation>Avec des tuiles : le nombre de processus de calcul (un cluster Dask local). 0 ou 1 : les tuiles sont calculées l'une après l'autre dans le processus de QGIS. Nécessite le paquet Python dask[distributed].</translation>
+    </message>
+    <message>
+      <source>With tiles: the address of a running Dask scheduler (tcp://host:8786) whose workers have urbanvox's core importable; overrides the worker count.</source>
+      <translation>Avec des tuiles : l'adresse d'un ordonnanceur Dask en service (tcp://hôte:8786) dont les processus peuvent importer le cœur d'urbanvox ; remplace le nombre de processus.</translation>
+    </message>
+    <message>
       <source>One feature per building block: its closed 3-D surface, with height, areas, volumes, mesh quality and distance to the data.</source>
       <translation>Une entité par îlot bâti : sa surface 3D fermée, avec hauteur, aires, volumes, qualité du maillage et distance aux données.</translation>
     </message>
@@ -184,8 +208,8 @@
       <translation>Reconstruire les îlots bâtis à partir d'un nuage de points</translation>
     </message>
     <message>
-      <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud (.las or .laz).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
-      <translation>&lt;p&gt;Îlots bâtis voxelisés à partir d'un nuage de points LiDAR classifié (.las ou .laz).&lt;/p&gt;&lt;p&gt;&lt;b&gt;SCR&lt;/b&gt; : le système de coordonnées des points ; par défaut celui de l'en-tête du fichier. Obligatoire quand l'en-tête n'en a pas (par ex. dalles AHN3 : EPSG:28992) ; il remplace celui de l'en-tête.&lt;br&gt;&lt;b&gt;Classes du sol&lt;/b&gt; / &lt;b&gt;Classes des bâtiments&lt;/b&gt; : codes de classification ASPRS, séparés par des virgules (sol 2, bâtiment 6 en LAS standard). Les points des autres classes sont ignorés.&lt;/p&gt;</translation>
+      <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud: one or several .las/.laz files (a tile collection, as LiDAR is delivered, is read as one cloud).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Îlots bâtis voxelisés à partir d'un nuage de points LiDAR classifié : un ou plusieurs fichiers .las/.laz (une collection de dalles, telle que le LiDAR est livré, est lue comme un seul nuage).&lt;/p&gt;&lt;p&gt;&lt;b&gt;SCR&lt;/b&gt; : le système de coordonnées des points ; par défaut celui de l'en-tête du fichier. Obligatoire quand l'en-tête n'en a pas (par ex. dalles AHN3 : EPSG:28992) ; il remplace celui de l'en-tête.&lt;br&gt;&lt;b&gt;Classes du sol&lt;/b&gt; / &lt;b&gt;Classes des bâtiments&lt;/b&gt; : codes de classification ASPRS, séparés par des virgules (sol 2, bâtiment 6 en LAS standard). Les points des autres classes sont ignorés.&lt;/p&gt;</translation>
     </message>
   </context>
 </TS>
