@@ -290,8 +290,6 @@ def _ratio(a, b) -> str:
 def print_case(name: str, voxel: float, r: dict) -> None:
     points = r["n_ground"] + r["n_building"]
     unit_count = {"read": r["n_read"], "points": points, "voxels": r["voxels"], "faces": r["faces"]}
-    if "sample" in r["stages"]:
-        unit_count["points"] = points
     print(f"\n{name} @ {voxel:g} m: {r['blocks']:,} blocks, {r['n_read']:,} {'points' if 'sample' not in r['stages'] else 'triangles'} read "
           f"({r['n_ground']:,} ground, {r['n_building']:,} building), {r['voxels']:,} voxels"
           f"{' in %d grids' % r['clusters'] if r['clusters'] > 1 else ''}, {r['faces']:,} faces; "
@@ -456,7 +454,11 @@ def main(argv: list[str] | None = None) -> int:
                 line = next((ln for ln in reversed(out.stdout.splitlines()) if ln.startswith("REPORT ")), None)
                 if out.returncode != 0 or line is None:
                     last = (out.stderr.strip().splitlines() or ["(no output)"])[-1]
+                    if out.returncode < 0:  # killed by a signal: SIGKILL is the kernel's OOM killer
+                        last = f"killed by signal {-out.returncode}" + (" (out of memory?)"
+                                                                         if out.returncode == -9 else "")
                     row["status"] = f"failed: {last}"
+                    row["returncode"] = out.returncode
                     row["stderr"] = out.stderr[-4000:]
                     print(f"\n{name} @ {voxel:g} m: {row['status']}", flush=True)
                 else:
