@@ -312,6 +312,21 @@ def _part_triangles(p: _Part) -> np.ndarray:
     return tris[:, ::-1] if p.winding == "inverted" else tris
 
 
+def _las_header(extent: tuple[float, float, float, float], crs: bool) -> "laspy.LasHeader":  # noqa: F821
+    """LAS 1.4 point format 6 header, millimetre scale, offset at the extent's corner."""
+    import laspy
+    import pyproj
+
+    header = laspy.LasHeader(point_format=6, version="1.4")
+    header.offsets = np.array([extent[0], extent[1], 0.0])
+    header.scales = np.array([0.001, 0.001, 0.001])
+    header.creation_date = datetime.date(2024, 1, 1)  # byte-identical reruns
+    header.generating_software = "urbanvox synthetic"
+    if crs:
+        header.add_crs(pyproj.CRS.from_epsg(CRS_EPSG))
+    return header
+
+
 def _write_binary_stl(path, tris_world: np.ndarray, header: bytes) -> int:
     dt = np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)), ("attr", "<u2")])
     rec = np.zeros(len(tris_world), dt)
@@ -354,9 +369,14 @@ class District:
     def _roof_local(self, xl: np.ndarray, yl: np.ndarray) -> np.ndarray:
         """Highest roof over local ``xl, yl``; -inf where there is no building."""
         z = np.full(xl.shape, -np.inf)
+        # Points sorted by x once: each part then looks at the slice under its x range,
+        # not at every point (a city tile has 100+ parts and ~800k points).
+        order = np.argsort(xl, kind="stable")
+        xs = xl[order]
         for p in self._parts:
             x0, y0, x1, y1 = p.bbox()
-            idx = np.flatnonzero((xl >= x0) & (xl <= x1) & (yl >= y0) & (yl <= y1))
+            near = order[np.searchsorted(xs, x0, "left"):np.searchsorted(xs, x1, "right")]
+            idx = np.sort(near[(yl[near] >= y0) & (yl[near] <= y1)])
             if idx.size:
                 u, v = p.to_uv(xl[idx], yl[idx])
                 inside = (np.abs(u) <= p.length / 2 + 1e-9) & (np.abs(v) <= p.width / 2 + 1e-9)
@@ -401,9 +421,22 @@ class District:
         2056
         """
         import laspy
-        import pyproj
 
         rng = np.random.default_rng(self.seed if seed is None else seed)
+        X, Y, Z, C = self._airborne_points(rng, density)
+
+        las = laspy.LasData(_las_header(self.extent, crs))
+        las.x, las.y, las.z = X + ORIGIN[0], Y + ORIGIN[1], Z
+        las.classification = C
+        las.return_number = np.ones(X.size, np.uint8)
+        las.number_of_returns = np.ones(X.size, np.uint8)
+        las.gps_time = np.arange(X.size) * 1e-5
+        las.write(str(path))
+        return int(X.size)
+
+    def _airborne_points(self, rng: np.random.Generator, density: float
+                         ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Local x, y, z and class of an airborne-like cloud (see :meth:`write_las`)."""
         n = rng.poisson(density * SIZE * SIZE)
         x, y = rng.random(n) * SIZE, rng.random(n) * SIZE
         roof = self._roof_local(x, y)
@@ -445,21 +478,7 @@ class District:
                             np.full(4, 2, np.uint8)])
         Z = Z + rng.normal(0.0, 0.025, Z.size)
 
-        header = laspy.LasHeader(point_format=6, version="1.4")
-        header.offsets = np.array([self.extent[0], self.extent[1], 0.0])
-        header.scales = np.array([0.001, 0.001, 0.001])
-        header.creation_date = datetime.date(2024, 1, 1)  # byte-identical reruns
-        header.generating_software = "urbanvox synthetic"
-        if crs:
-            header.add_crs(pyproj.CRS.from_epsg(CRS_EPSG))
-        las = laspy.LasData(header)
-        las.x, las.y, las.z = X + ORIGIN[0], Y + ORIGIN[1], Z
-        las.classification = C
-        las.return_number = np.ones(X.size, np.uint8)
-        las.number_of_returns = np.ones(X.size, np.uint8)
-        las.gps_time = np.arange(X.size) * 1e-5
-        las.write(str(path))
-        return int(X.size)
+        return X, Y, Z, C
 
     def _part_meshes(self) -> list[tuple[_Part, np.ndarray]]:
         """Per part, its triangles in world coordinates (float64, before the STL cast)."""
@@ -573,12 +592,214 @@ def make_district(seed: int = 0) -> District:
     extent = (ORIGIN[0], ORIGIN[1], ORIGIN[0] + SIZE, ORIGIN[1] + SIZE)
     return District(extent, blocks, seed, parts, _TREES.copy(), np.vstack(walls))
 
+# --- a city: districts and denser residential tiles side by side ---------------------
+
+#: Pitch of the residential tiles' house slots (m): 10 x 10 houses per tile, at least
+#: 6 m apart, and at least 3 m from the tile border so no block crosses a tile.
+HOUSE_SLOT = 25.0
+
+
+def _translated(b: BlockTruth, name: str, dx: float, dy: float, dz: float) -> BlockTruth:
+    """A truth block moved by ``(dx, dy, dz)``: volumes and areas do not change."""
+    foot = shapely.affinity.translate(shapely.from_wkt(b.footprint_wkt), dx, dy)
+    return BlockTruth(name=name, volume=b.volume, footprint_area=b.footprint_area, height=b.height,
+                      top_z=b.top_z + dz, ground_z=b.ground_z + dz, surface_area=b.surface_area,
+                      centroid=(b.centroid[0] + dx, b.centroid[1] + dy),
+                      footprint_wkt=foot.wkt, below_thresholds=b.below_thresholds,
+                      on_border=b.on_border)
+
+
+def make_residential(seed: int = 0) -> District:
+    """A 250 m tile of 10 x 10 house slots: flat, gable and hip roofs, some with an annex.
+
+    Same conventions as :func:`make_district` (local coordinates, terrain plane,
+    corners on the 0.5 m grid, exact truth); a quarter of the houses have a lower
+    flat annex touching their east wall (a two-part block with a step wall), and
+    street trees stand at slot corners, clear of every roof.
+
+    Examples
+    --------
+    >>> t = make_residential(0)
+    >>> len(t.blocks) == 100, all(not b.on_border for b in t.blocks)
+    (True, True)
+    """
+    rng = np.random.default_rng(seed)
+    slots = int(SIZE // HOUSE_SLOT)
+    room = HOUSE_SLOT - 6.0  # 3 m inset on each side
+    parts = []
+    for i in range(slots):
+        for j in range(slots):
+            L, W = rng.integers(16, 2 * int(room) + 1, 2) / 2  # 8 .. 19 m
+            kx, ky = rng.integers(0, 1000, 2)
+            h = rng.integers(6, 41) / 2 if rng.random() > 0.05 else rng.integers(40, 91) / 2
+            kind = rng.choice(["flat", "flat", "gable", "gable", "hip"])
+            rise = rng.integers(4, 10) / 2
+            floor, annex = bool(rng.random() < 0.5), rng.random() < 0.25
+            x0 = 3 + HOUSE_SLOT * i + (kx % (int(2 * (room - L)) + 1)) / 2
+            y0 = 3 + HOUSE_SLOT * j + (ky % (int(2 * (room - W)) + 1)) / 2
+            long_x = L >= W
+            if kind == "hip" and L == W:
+                kind = "gable"
+            name = f"house_{i}_{j}"
+            parts.append(_Part(name, x0 + L / 2, y0 + W / 2, max(L, W), min(L, W), float(h),
+                               float(rise) if kind != "flat" else 0.0, str(kind),
+                               0 if long_x else 90, floor))
+            free = HOUSE_SLOT * i + 3 + room - (x0 + L)  # slot room east of the house
+            if annex and free >= 3.0:
+                a, wa = np.floor(min(free, 6.0) * 2) / 2, np.floor(W) / 2
+                parts.append(_Part(name, x0 + L + a / 2, y0 + wa / 2, a, wa,
+                                   float(max(3.0, np.floor(h) / 2))))
+    corners = rng.choice((slots - 1) ** 2, 12, replace=False)
+    trees = np.column_stack([HOUSE_SLOT * (1 + corners // (slots - 1)),
+                             HOUSE_SLOT * (1 + corners % (slots - 1)),
+                             rng.uniform(1.5, 2.5, len(corners)), rng.uniform(6.0, 12.0, len(corners))])
+    names = list(dict.fromkeys(p.block for p in parts))
+    blocks, walls = [], []
+    for name in names:
+        bt, w = _block_truth(name, [p for p in parts if p.block == name])
+        blocks.append(bt)
+        walls.append(w)
+    extent = (ORIGIN[0], ORIGIN[1], ORIGIN[0] + SIZE, ORIGIN[1] + SIZE)
+    return District(extent, blocks, seed, parts, trees, np.vstack(walls))
+
+
+@dataclass
+class City:
+    """Square city of 250 m tiles: districts (:func:`make_district`) among residential
+    tiles (:func:`make_residential`), on one continuous terrain plane.
+
+    Tile ``(ti, tj)`` is its generator's output moved by ``(250 ti, 250 tj)`` and
+    lifted by the terrain's rise over that distance, so the terrain is the plane
+    ``TERRAIN`` over the whole city and every block's truth is the tile's, translated.
+    A district's ``border_cut`` block keeps its tile-clipped truth: the neighbouring
+    tile has at least 3 m of bare ground along the border, and no point is written
+    past it.
+
+    Attributes
+    ----------
+    extent : tuple of float
+        World ``(xmin, ymin, xmax, ymax)``.
+    blocks : list of BlockTruth
+        World coordinates; names ``"t{ti}_{tj}/{name in the tile}"``.
+    tiles : list of (int, int, District)
+        Tile indices and the tile in its own local coordinates.
+    """
+
+    extent: tuple[float, float, float, float]
+    blocks: list[BlockTruth]
+    seed: int
+    tiles: list[tuple[int, int, District]] = field(default_factory=list, repr=False)
+
+    @staticmethod
+    def tile_shift(ti: int, tj: int) -> tuple[float, float, float]:
+        """``(dx, dy, dz)`` from a tile's own coordinates to the city's."""
+        dx, dy = SIZE * ti, SIZE * tj
+        return dx, dy, TERRAIN[1] * dx + TERRAIN[2] * dy
+
+    def write_las(self, path, *, density: float = 12.0, seed: int | None = None,
+                  crs: bool = True, scan_line: float = 0.3) -> int:
+        """Write the city's airborne-like cloud (LAS 1.4 / format 6; LAZ if ``.laz``).
+
+        Tile by tile, each tile's points as :meth:`District.write_las` makes them
+        and then in acquisition order (see below), appended in chunks to one file:
+        memory stays that of one tile (~1 M points) whatever the city's size.
+
+        Parameters
+        ----------
+        path : str or Path
+        density : float
+            Pulses per m2.
+        seed : int, optional
+            Seed of the points; tile ``n`` uses ``seed + n``; defaults to the city seed.
+        crs : bool
+            Write EPSG:2056 as a WKT VLR.
+        scan_line : float
+            Spacing (m) of the scan lines the points are ordered by: a real file is
+            in acquisition order (lines swept across the flight direction), which is
+            what the locality of readers and binning depends on.
+
+        Returns
+        -------
+        int
+            Number of points written.
+        """
+        import laspy
+
+        seed = self.seed if seed is None else seed
+        header = _las_header(self.extent, crs)
+        backend = next((b for b in (laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs)
+                        if b.is_available()), None)
+        total = 0
+        with laspy.open(str(path), mode="w", header=header, laz_backend=backend) as writer:
+            for n, (ti, tj, tile) in enumerate(self.tiles):
+                X, Y, Z, C = tile._airborne_points(np.random.default_rng(seed + n), density)
+                line = np.floor(Y / scan_line)
+                # boustrophedon: odd lines swept back, like an oscillating mirror
+                order = np.lexsort((np.where(line % 2 == 1, -X, X), line))
+                dx, dy, dz = self.tile_shift(ti, tj)
+                points = laspy.ScaleAwarePointRecord.zeros(len(order), header=header)
+                points.x = X[order] + (ORIGIN[0] + dx)
+                points.y = Y[order] + (ORIGIN[1] + dy)
+                points.z = Z[order] + dz
+                points.classification = C[order]
+                points.return_number = np.ones(len(order), np.uint8)
+                points.number_of_returns = np.ones(len(order), np.uint8)
+                points.gps_time = (total + np.arange(len(order))) * 1e-5
+                writer.write_points(points)
+                total += len(order)
+        return total
+
+    def truth_table(self) -> list[dict]:
+        """The blocks as JSON-ready dicts (centroid as a list)."""
+        return [{**asdict(b), "centroid": list(b.centroid)} for b in self.blocks]
+
+
+def make_city(size_m: float = 2000.0, seed: int = 0, district_every: int = 2) -> City:
+    """A city of about ``size_m`` x ``size_m`` (rounded up to whole 250 m tiles).
+
+    Parameters
+    ----------
+    size_m : float
+        Side of the city (m); 2000 m gives 64 tiles, ~5,700 blocks and, at the
+        default density, ~50 M points.
+    seed : int
+        Tile ``n`` (row-major) is generated with seed ``seed + n``.
+    district_every : int
+        Tiles ``(ti, tj)`` with both indices multiples of this are districts
+        (special buildings, trees over roofs, 30 m boxes); the others residential.
+
+    Examples
+    --------
+    >>> c = make_city(500.0)
+    >>> len(c.tiles), len(c.blocks), c.extent[2] - c.extent[0]
+    (4, 355, 500.0)
+    """
+    n_tiles = max(1, int(np.ceil(size_m / SIZE - 1e-9)))
+    tiles, blocks = [], []
+    for ti in range(n_tiles):
+        for tj in range(n_tiles):
+            n = ti * n_tiles + tj
+            district = ti % district_every == 0 and tj % district_every == 0
+            tile = make_district(seed + n) if district else make_residential(seed + n)
+            dx, dy, dz = City.tile_shift(ti, tj)
+            blocks += [_translated(b, f"t{ti}_{tj}/{b.name}", dx, dy, dz) for b in tile.blocks]
+            tiles.append((ti, tj, tile))
+    side = n_tiles * SIZE
+    extent = (ORIGIN[0], ORIGIN[1], ORIGIN[0] + side, ORIGIN[1] + side)
+    return City(extent, blocks, seed, tiles)
+
 
 def main(argv: list[str] | None = None) -> int:
-    """CLI: ``python -m core.synthetic OUTDIR [SEED]`` writes LAZ, STLs and truth.json."""
+    """CLI: ``python -m core.synthetic OUTDIR [SEED]`` writes LAZ, STLs and truth.json;
+    ``python -m core.synthetic --city OUTDIR [--size M] [--seed N] [--density D] [--las]``
+    writes city.laz (or city.las) and city_truth.json."""
     argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--city":
+        return _city_main(argv[1:])
     if not argv:
-        print("usage: python -m core.synthetic OUTDIR [SEED]", file=sys.stderr)
+        print("usage: python -m core.synthetic OUTDIR [SEED]\n"
+              "       python -m core.synthetic --city OUTDIR [--size M] [--seed N] [--density D] [--las]",
+              file=sys.stderr)
         return 2
     out = Path(argv[0])
     out.mkdir(parents=True, exist_ok=True)
@@ -591,6 +812,32 @@ def main(argv: list[str] | None = None) -> int:
     (out / "truth.json").write_text(json.dumps(doc, indent=1))
     print(f"{n} points, {t} building triangles, {g} ground triangles, "
           f"{len(d.blocks)} blocks -> {out}")
+    return 0
+
+
+
+def _city_main(argv: list[str]) -> int:
+    import argparse
+    import time
+
+    parser = argparse.ArgumentParser(prog="python -m core.synthetic --city")
+    parser.add_argument("outdir", type=Path)
+    parser.add_argument("--size", type=float, default=2000.0, help="side of the city in m (default 2000)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--density", type=float, default=12.0, help="pulses per m2 (default 12)")
+    parser.add_argument("--las", action="store_true", help="uncompressed LAS instead of LAZ")
+    args = parser.parse_args(argv)
+    args.outdir.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    city = make_city(args.size, args.seed)
+    built = time.perf_counter() - start
+    path = args.outdir / ("city.las" if args.las else "city.laz")
+    n = city.write_las(path, density=args.density)
+    doc = {"crs_epsg": CRS_EPSG, "extent": list(city.extent), "seed": city.seed,
+           "thresholds": DEFAULT_THRESHOLDS, "blocks": city.truth_table()}
+    (args.outdir / "city_truth.json").write_text(json.dumps(doc))
+    print(f"{len(city.blocks)} blocks in {len(city.tiles)} tiles ({built:.1f} s), {n} points -> {path} "
+          f"({time.perf_counter() - start:.1f} s)")
     return 0
 
 

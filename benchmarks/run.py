@@ -1,0 +1,484 @@
+"""Benchmarks of the whole method: per stage time, throughput and peak memory, with baselines.
+
+Run from the repository root with the project's venv::
+
+    .venv/bin/python -m benchmarks                   # every case, 1 m and 0.5 m voxels
+    .venv/bin/python -m benchmarks --quick           # 500 m city, 1 m voxels only: a smoke test
+    .venv/bin/python -m benchmarks delft city --voxel 1
+    .venv/bin/python -m benchmarks --list
+    .venv/bin/python -m benchmarks city --quick --profile   # + pyinstrument of the slowest stage
+
+Cases: every LAS/LAZ file of ../shared/data (``URBANVOX_SHARED_DATA`` overrides it) with the
+CRS and classes the real-data tests use, the six Montpellier tiles read as one collection, the
+Zurich LoD2 STL, the 250 m synthetic district and the synthetic city (2 km x 2 km, ~5,700
+blocks, ~50 M points; 500 m with ``--quick``), generated once into a cache folder.
+
+Each case runs in a fresh process (its peak RSS is its own): read, the pipeline's stages
+(their own timings and peak RSS), export; then, on the same points and voxels, the
+baselines of :mod:`benchmarks.baselines`. A table per case and a summary are printed, and
+everything is written as JSON to ``benchmarks/results/``.
+
+Stage names: the pipeline's laps (``core.pipeline.reconstruct_points``) are grid, ground
+(ground level and, inside it, the voxel binning of the building points: ``voxelise``,
+timed apart on the same points), classify, blocks, eliminate (elimination), surface
+(surfaces), smooth (smoothing), project (projection), measure; read and export are timed
+around them. Rates: read in points read (mesh: triangles), grid/ground in points,
+voxelise in building points, the voxel stages in voxels of the grid(s), and smoothing,
+projection, measure and export in faces (quads) of the surface.
+"""
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(os.environ.get("URBANVOX_SHARED_DATA", ROOT.parent / "shared" / "data"))
+RESULTS = Path(__file__).resolve().parent / "results"
+CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "urbanvox-bench"
+
+STAGES = ["read", "sample", "grid", "ground", "classify", "blocks", "eliminate", "surface", "smooth",
+          "project", "measure", "export"]
+#: The issue's names for the pipeline's laps.
+STAGE_NAMES = {"ground": "ground+voxelise", "eliminate": "elimination", "surface": "surfaces",
+               "smooth": "smoothing", "project": "projection"}
+#: What a stage's rate counts.
+RATE_UNIT = {"read": "read", "sample": "points", "grid": "points", "ground": "points",
+             "classify": "voxels", "blocks": "voxels", "eliminate": "voxels", "surface": "voxels",
+             "smooth": "faces", "project": "faces", "measure": "faces", "export": "faces"}
+#: Functions whose pyinstrument subtree is a stage (``--profile``).
+STAGE_FUNCTIONS = {"read": {"read_point_clouds", "read_triangles"}, "sample": {"sample_thinned"},
+                   "ground": {"column_ground_level", "_occupied_cells"}, "classify": {"classify_voxels"},
+                   "blocks": {"_blocks_above_thresholds"}, "eliminate": {"eliminate_unsupported"},
+                   "surface": {"from_regions", "block_columns"}, "smooth": {"smooth"},
+                   "project": {"project_nodes"}, "measure": {"measure_blocks", "nearest_distance"},
+                   "export": {"write_mesh"}}
+
+
+def montpellier_tiles() -> list[Path]:
+    return sorted((DATA / "montpellier_ign").glob("*.laz"))
+
+
+def cases(city_size: float) -> dict[str, dict]:
+    """Every case: kind (las/mesh/district/city), input paths, CRS (as tests/test_real_data.py)."""
+    out = {
+        "delft": {"kind": "las", "paths": [DATA / "delft_ahn3/ahn3_cropped_2.laz"], "crs": "EPSG:28992"},
+        "st_barth": {"kind": "las", "crs": "EPSG:5490",
+                     "paths": [DATA / "ign_lidarprod/St_Barth_RGAF09_UTM20N_IGN_1988_SB_subset_100m.laz"]},
+        "jura": {"kind": "las", "crs": None,
+                 "paths": [DATA / "ign_lidarprod/870000_6618000.subset.postValidation.laz"]},
+        "sample_c": {"kind": "las", "paths": [DATA / "pdal/sample_c.las"], "crs": "EPSG:32610"},
+        "montpellier": {"kind": "las", "paths": montpellier_tiles(), "crs": None},
+    }
+    for tile in montpellier_tiles():
+        key = "mtp_" + "_".join(tile.stem.split("_")[2:4])
+        out[key] = {"kind": "las", "paths": [tile], "crs": None}
+    out["zurich"] = {"kind": "mesh", "paths": [DATA / "cityjson/zurich_subset_lod2_buildings.stl"],
+                     "crs": "EPSG:2056"}
+    out["district"] = {"kind": "district", "paths": None, "crs": None}
+    out["city"] = {"kind": "city", "paths": None, "crs": None, "size": city_size}
+    return out
+
+
+def synthetic_path(case: dict, seed: int = 0) -> Path:
+    """The generated LAZ of the district or city, written once into the cache folder."""
+    if case["kind"] == "district":
+        from core.synthetic import make_district
+
+        path = CACHE / f"district-seed{seed}" / "district.laz"
+        if not path.exists():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            make_district(seed).write_las(path)
+        return path
+    from core.synthetic import make_city
+
+    path = CACHE / f"city-{case['size']:g}m-seed{seed}" / "city.laz"
+    if not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        start = time.perf_counter()
+        city = make_city(case["size"], seed)
+        n = city.write_las(path.with_suffix(".tmp.laz"))
+        path.with_suffix(".tmp.laz").rename(path)
+        print(f"  generated {path} ({len(city.blocks):,} blocks, {n:,} points, "
+              f"{time.perf_counter() - start:.0f} s)", flush=True)
+    return path
+
+
+# --- the child: one case at one voxel size -------------------------------------------
+
+def _rss_mb() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def run_case(spec: dict) -> dict:
+    """Read, reconstruct, export; then the baselines on the same data. In this process."""
+    import numpy as np
+
+    from core.crs import metres_per_unit, resolve_crs
+    from core.pipeline import ReconstructionParams, reconstruct_points
+
+    params = ReconstructionParams(voxel_size=spec["voxel"])
+    stages: dict[str, dict] = {}
+    report: dict = {"stages": stages}
+    airborne = spec["kind"] != "mesh"
+
+    start = time.perf_counter()
+    if airborne:
+        from core.readers.las import read_point_clouds
+
+        points = read_point_clouds(spec["paths"], (2,), (6,), spec["crs"])
+        ground, building, crs, warnings = points.ground, points.building, points.crs, list(points.warnings)
+        report["n_read"] = int(points.n_points)
+        del points
+        stages["read"] = {"s": time.perf_counter() - start, "rss": _rss_mb()}
+    else:
+        from core.readers.mesh import base_points, read_triangles
+        from core.sampling import sample_thinned
+
+        crs = resolve_crs(None, spec["crs"], spec["paths"][0])
+        unit = metres_per_unit(crs)
+        h = params.voxel_size / unit
+        triangles = read_triangles(spec["paths"][0])
+        warnings = list(triangles.warnings)
+        report["n_read"] = int(len(triangles.corners()))
+        stages["read"] = {"s": time.perf_counter() - start, "rss": _rss_mb()}
+        lap = time.perf_counter()
+        building = sample_thinned(triangles.corners(), 0.1 * h, h / 3)
+        ground = base_points(triangles, h, unit=unit)
+        stages["sample"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
+    report["n_ground"], report["n_building"] = int(len(ground)), int(len(building))
+
+    lap = time.perf_counter()
+    result = reconstruct_points(ground, building, crs, params, airborne=airborne, warnings=warnings)
+    pipeline_s = time.perf_counter() - lap
+    rss = result.stats.get("peak_rss_mb", {})
+    for stage, seconds in result.timings.items():
+        stages[stage] = {"s": seconds, "rss": rss.get(stage, float("nan"))}
+    with tempfile.TemporaryDirectory() as tmp:
+        lap = time.perf_counter()
+        result.write_mesh(Path(tmp) / "mesh.ply")
+        stages["export"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
+        report["export_mb"] = (Path(tmp) / "mesh.ply").stat().st_size / 1e6
+    report["e2e_s"] = time.perf_counter() - start
+    report["pipeline_s"] = pipeline_s
+    report["peak_rss_mb"] = _rss_mb()
+    report["blocks"] = int(len(result.blocks))
+    report["faces"] = int(len(result.surface.quads))
+    report["clusters"] = int(result.stats.get("clusters", 1))
+    report["warnings"] = result.warnings
+    del result
+
+    if spec.get("baselines", True):
+        report["baselines"] = run_baselines(spec, ground, building, crs, params, airborne)
+    else:
+        from benchmarks.baselines import pipeline_grids
+
+        report["voxels"] = sum(g.n_voxels for g, _, _ in pipeline_grids(ground, building, crs, params.voxel_size))
+    if spec.get("profile"):
+        report["profile"] = profile_slowest(spec, stages, ground, building, crs, params, airborne)
+    if "voxels" not in report:
+        report["voxels"] = report["baselines"]["labelling"]["voxels"]
+    return report
+
+
+def run_baselines(spec: dict, ground, building, crs, params, airborne: bool) -> dict:
+    from benchmarks import baselines as bl
+    from core.crs import metres_per_unit
+
+    grids = list(bl.pipeline_grids(ground, building, crs, params.voxel_size))
+    out: dict = {"binning": bl.binning(grids)}
+    if spec["kind"] == "mesh":
+        h = params.voxel_size / metres_per_unit(crs)
+        out["trimesh"] = bl.trimesh_voxelise(spec["paths"][0], h)
+    m = metres_per_unit(crs)
+    hole = params.max_roof_hole_area / m**2
+    cells = hole / (params.voxel_size / m) ** 2
+    out["labelling"] = bl.labelling(bl.front_labels(g, gl, bl_, airborne, cells) for g, gl, bl_ in grids)
+    out["copy"] = bl.copy_floor({"points": building.nbytes,
+                                 "grid": max(g.n_voxels for g, _, _ in grids)})
+    return out
+
+
+def profile_slowest(spec: dict, stages: dict, ground, building, crs, params, airborne: bool) -> dict:
+    """Rerun the pipeline under pyinstrument; save HTML, return the slowest stage's call tree."""
+    try:
+        from pyinstrument import Profiler
+    except ImportError:
+        return {"error": "pyinstrument not installed"}
+    from core.pipeline import reconstruct_points
+
+    slowest = max((s for s in stages if s in STAGE_FUNCTIONS), key=lambda s: stages[s]["s"])
+    profiler = Profiler(interval=0.005)
+    profiler.start()
+    result = reconstruct_points(ground, building, crs, params, airborne=airborne)
+    if slowest == "export":
+        with tempfile.TemporaryDirectory() as tmp:
+            result.write_mesh(Path(tmp) / "mesh.ply")
+    session = profiler.stop()
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    html = RESULTS / f"profile-{spec['name']}-{spec['voxel']:g}m.html"
+    html.write_text(profiler.output_html())
+    frames: list = []
+    _topmost(session.root_frame(), STAGE_FUNCTIONS[slowest], frames)
+    tree: dict = {}
+    for frame in frames:  # calls of the stage (one per cluster, two projections) merged by call path
+        _merge(frame, tree)
+    lines: list[str] = []
+    _render(tree, sum(node[0] for node in tree.values()), 0, lines)
+    return {"stage": slowest, "html": str(html), "tree": lines}
+
+
+def _topmost(frame, names: set[str], found: list) -> None:
+    """Every frame called one of ``names`` that is not inside another such frame."""
+    if frame is None:
+        return
+    if frame.function in names:
+        found.append(frame)
+        return
+    for child in frame.children:
+        _topmost(child, names, found)
+
+
+def _merge(frame, tree: dict) -> None:
+    key = (frame.function, frame.file_path_short or "", frame.line_no if frame.file_path_short else "")
+    node = tree.setdefault(key, [0.0, {}])
+    node[0] += frame.time
+    for child in frame.children:
+        _merge(child, node[1])
+
+
+def _render(tree: dict, total: float, depth: int, lines: list[str], max_depth: int = 12) -> None:
+    """Indented text of a merged call tree, branches above 1 % of ``total``."""
+    for (function, path, line), (seconds, children) in sorted(tree.items(), key=lambda kv: -kv[1][0]):
+        if seconds < 0.01 * total or depth > max_depth:
+            continue
+        where = f"{path}:{line}" if path else ""
+        lines.append(f"{'  ' * depth}{seconds:7.2f} s  {function}  {where}")
+        _render(children, total, depth + 1, lines, max_depth)
+
+
+# --- the parent: cases in child processes, tables, JSON -------------------------------
+
+def _fmt_rate(count: float, seconds: float) -> str:
+    if not seconds or seconds <= 0 or not count:
+        return ""
+    rate = count / seconds
+    for scale, suffix in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
+        if rate >= scale:
+            return f"{rate / scale:6.1f} {suffix}"
+    return f"{rate:6.0f}  "
+
+
+def _ratio(a, b) -> str:
+    """``a / b`` as "12.3x", or the reason there is none."""
+    if isinstance(a, str):
+        return a
+    if isinstance(b, str):
+        return b
+    return f"{a / b:.1f}x" if b else "-"
+
+
+def print_case(name: str, voxel: float, r: dict) -> None:
+    points = r["n_ground"] + r["n_building"]
+    unit_count = {"read": r["n_read"], "points": points, "voxels": r["voxels"], "faces": r["faces"]}
+    print(f"\n{name} @ {voxel:g} m: {r['blocks']:,} blocks, {r['n_read']:,} {'points' if 'sample' not in r['stages'] else 'triangles'} read "
+          f"({r['n_ground']:,} ground, {r['n_building']:,} building), {r['voxels']:,} voxels"
+          f"{' in %d grids' % r['clusters'] if r['clusters'] > 1 else ''}, {r['faces']:,} faces; "
+          f"end to end {r['e2e_s']:.2f} s, peak RSS {r['peak_rss_mb']:,.0f} MB")
+    print(f"  {'stage':<16} {'seconds':>8} {'rate':>9} {'per s':<7} {'peak RSS MB':>11}")
+    for stage in STAGES:
+        if stage not in r["stages"]:
+            continue
+        s = r["stages"][stage]
+        unit = RATE_UNIT[stage]
+        label = "tri" if (unit == "read" and "sample" in r["stages"]) else {"read": "pts", "points": "pts",
+                                                                           "voxels": "voxels", "faces": "faces"}[unit]
+        print(f"  {STAGE_NAMES.get(stage, stage):<16} {s['s']:8.2f} {_fmt_rate(unit_count[unit], s['s']):>9} "
+              f"{label:<7} {s['rss']:11,.0f}")
+    b = r.get("baselines")
+    if not b:
+        return
+    bn = b["binning"]
+    print(f"  {'voxelise':<16} {bn['unique_s']:8.2f} {_fmt_rate(bn['points'], bn['unique_s']):>9} pts      "
+          f"(np.unique, the pipeline's, inside ground)")
+    print(f"  {'voxelise fast':<16} {bn['fast_s']:8.3f} {_fmt_rate(bn['points'], bn['fast_s']):>9} pts      "
+          f"(VoxelGrid.occupied_cells, file order; shuffled {_fmt_rate(bn['points'], bn['fast_shuffled_s']).strip()} pts/s; "
+          f"same cells: {bn['equal']})")
+    o3d_s = bn["open3d_s"]
+    o3d_txt = o3d_s if isinstance(o3d_s, str) else (f"{o3d_s:.3f} s ({_fmt_rate(bn['points'], o3d_s).strip()} pts/s, "
+                                                     f"+{bn['open3d_convert_s']:.3f} s numpy->Vector3dVector)")
+    print(f"  binning vs Open3D VoxelGrid.create_from_point_cloud: {o3d_txt}; "
+          f"fast is {_ratio(o3d_s, bn['fast_s'])} Open3D, {_ratio(bn['unique_s'], bn['fast_s'])} np.unique; "
+          f"np.unique is {_ratio(o3d_s, bn['unique_s'])} Open3D")
+    if "trimesh" in b:
+        tm = b["trimesh"]
+        ours = r["stages"]["sample"]["s"] + bn["fast_s"]
+        tm_s = tm["trimesh_s"]
+        tm_txt = tm_s if isinstance(tm_s, str) else f"{tm_s:.3f} s"
+        print(f"  mesh voxelising vs trimesh mesh.voxelized(pitch): {tm_txt} vs ours (sample + fast binning) "
+              f"{ours:.3f} s: ours {_ratio(tm_s, ours)} faster")
+    lb = b["labelling"]
+    sk = lb["skimage_s"]
+    print(f"  labelling (6-conn., building mask, {lb['voxels']:,} voxels): label_blocks {lb['ours_s']:.3f} s "
+          f"({_fmt_rate(lb['voxels'], lb['ours_s']).strip()} voxels/s), scipy.ndimage.label {lb['scipy_s']:.3f} s "
+          f"({_ratio(lb['scipy_s'], lb['ours_s'])}), skimage.measure.label "
+          f"{sk if isinstance(sk, str) else f'{sk:.3f} s'} ({_ratio(sk, lb['ours_s'])}); "
+          f"mask alone {lb['mask_s']:.3f} s; same count: {lb['equal']}")
+    for what, c in b["copy"].items():
+        floor = c["gb_per_s"] * 1e9 / 24 if what == "points" else None
+        extra = f"; binning floor (read 24 B/point once) {floor / 1e6:,.0f} M pts/s" if floor else ""
+        print(f"  numpy copy of {what} ({c['bytes'] / 1e6:,.0f} MB): {c['gb_per_s']:.1f} GB/s{extra}")
+
+
+def print_summary(rows: list[dict]) -> None:
+    cols = ["read", "ground", "classify", "blocks", "eliminate", "surface", "smooth", "project", "export"]
+    print("\nSummary (seconds; fast binning in M pts/s, ratios = baseline time / ours)")
+    head = (f"{'case':<22} {'e2e':>7} " + " ".join(f"{STAGE_NAMES.get(c, c)[:9]:>9}" for c in cols)
+            + f" {'RSS MB':>7} {'fastMp/s':>8} {'xO3D':>6} {'xuniq':>6} {'scipy':>6} {'skimg':>6} {'copyGB/s':>8}")
+    print(head)
+    for row in rows:
+        r = row.get("report")
+        label = f"{row['case']}@{row['voxel']:g}"
+        if r is None:
+            print(f"{label:<22} {row['status']}")
+            continue
+        cells = " ".join(f"{r['stages'][c]['s'] if c in r['stages'] else float('nan'):9.2f}" for c in cols)
+        b = r.get("baselines", {})
+        bn, lb, cp = b.get("binning", {}), b.get("labelling", {}), b.get("copy", {})
+        extra = ""
+        if bn:
+            extra = (f" {bn['points'] / bn['fast_s'] / 1e6 if bn['fast_s'] else float('nan'):8.1f}"
+                     f" {_ratio(bn['open3d_s'], bn['fast_s'])[:6]:>6} {_ratio(bn['unique_s'], bn['fast_s']):>6}"
+                     f" {_ratio(lb['scipy_s'], lb['ours_s']):>6} {_ratio(lb['skimage_s'], lb['ours_s'])[:6]:>6}"
+                     f" {cp.get('points', {}).get('gb_per_s', float('nan')):8.1f}")
+        print(f"{label:<22} {r['e2e_s']:7.1f} {cells} {r['peak_rss_mb']:7.0f}{extra}")
+
+
+def _machine() -> dict:
+    import numpy
+    import scipy
+
+    info = {"python": platform.python_version(), "numpy": numpy.__version__, "scipy": scipy.__version__,
+            "cpus": os.cpu_count(), "platform": platform.platform()}
+    try:
+        info["memory_gb"] = round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30, 1)
+        info["cpu"] = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo", encoding="ascii")
+                            if line.startswith("model name")), "")
+    except (OSError, ValueError):
+        pass
+    for name in ("open3d", "skimage", "trimesh", "pyinstrument", "laspy", "lazrs"):
+        try:
+            info[name] = __import__(name).__version__
+        except Exception:  # noqa: BLE001 - a missing or broken baseline is reported, not fatal
+            info[name] = NOT_INSTALLED_TEXT
+    try:
+        info["commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                                        text=True).stdout.strip()
+    except OSError:
+        pass
+    return info
+
+
+NOT_INSTALLED_TEXT = "not installed"
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv and argv[0] == "--child":
+        spec = json.loads(argv[1])
+        report = run_case(spec)
+        print("REPORT " + json.dumps(report, default=float))
+        return 0
+    parser = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__.split("\n\n")[0])
+    parser.add_argument("cases", nargs="*", help="case names (default: all); see --list")
+    parser.add_argument("--quick", action="store_true", help="500 m city and 1 m voxels only: a smoke test")
+    parser.add_argument("--voxel", type=float, action="append", help="voxel size(s) in m (default 1 and 0.5)")
+    parser.add_argument("--city-size", type=float, help="side of the synthetic city in m (default 2000)")
+    parser.add_argument("--no-baselines", action="store_true", help="only the pipeline's stages")
+    parser.add_argument("--profile", action="store_true",
+                        help="rerun each case under pyinstrument; print the slowest stage's call tree")
+    parser.add_argument("--timeout", type=float, default=3600.0, help="seconds per case (default 3600)")
+    parser.add_argument("--json", type=Path, help="results file (default benchmarks/results/bench-DATE.json)")
+    parser.add_argument("--list", action="store_true", help="list the cases and exit")
+    args = parser.parse_args(argv)
+
+    city_size = args.city_size or (500.0 if args.quick else 2000.0)
+    all_cases = cases(city_size)
+    if args.list:
+        for name, case in all_cases.items():
+            where = ", ".join(str(p) for p in case["paths"]) if case["paths"] else f"generated ({case['kind']})"
+            print(f"{name:<22} {where}")
+        return 0
+    unknown = [c for c in args.cases if c not in all_cases]
+    if unknown:
+        parser.error(f"unknown case(s) {unknown}; known: {', '.join(all_cases)}")
+    voxels = args.voxel or ([1.0] if args.quick else [1.0, 0.5])
+    wanted = args.cases or list(all_cases)
+    out_path = args.json or RESULTS / f"bench-{datetime.datetime.now():%Y%m%d-%H%M%S}.json"
+    doc = {"machine": _machine(), "argv": argv, "city_size_m": city_size, "runs": []}
+    print(f"urbanvox benchmarks: numpy {doc['machine']['numpy']}, open3d {doc['machine']['open3d']}, "
+          f"skimage {doc['machine']['skimage']}, trimesh {doc['machine']['trimesh']}; "
+          f"{doc['machine'].get('cpus')} CPUs, {doc['machine'].get('memory_gb')} GB; results -> {out_path}",
+          flush=True)
+    for name in wanted:
+        case = all_cases[name]
+        paths = case["paths"]
+        if case["kind"] in ("district", "city"):
+            paths = [synthetic_path(case)]
+        if not paths or not all(Path(p).exists() for p in paths):
+            print(f"\n{name}: data not found under {DATA}, skipped")
+            doc["runs"].append({"case": name, "status": "data not found"})
+            continue
+        for voxel in voxels:
+            spec = {"name": name, "kind": "mesh" if case["kind"] == "mesh" else "las",
+                    "paths": [str(p) for p in paths], "crs": case["crs"], "voxel": voxel,
+                    "baselines": not args.no_baselines, "profile": args.profile}
+            row = {"case": name, "voxel": voxel, "spec": spec}
+            started = time.perf_counter()
+            try:
+                out = subprocess.run([sys.executable, "-m", "benchmarks.run", "--child", json.dumps(spec)],
+                                     cwd=ROOT, capture_output=True, text=True, timeout=args.timeout)
+            except subprocess.TimeoutExpired:
+                row["status"] = f"timed out after {args.timeout:.0f} s"
+                print(f"\n{name} @ {voxel:g} m: {row['status']}", flush=True)
+            else:
+                line = next((ln for ln in reversed(out.stdout.splitlines()) if ln.startswith("REPORT ")), None)
+                if out.returncode != 0 or line is None:
+                    last = (out.stderr.strip().splitlines() or ["(no output)"])[-1]
+                    if out.returncode < 0:  # killed by a signal: SIGKILL is the kernel's OOM killer
+                        last = f"killed by signal {-out.returncode}" + (" (out of memory?)"
+                                                                         if out.returncode == -9 else "")
+                    row["status"] = f"failed: {last}"
+                    row["returncode"] = out.returncode
+                    row["stderr"] = out.stderr[-4000:]
+                    print(f"\n{name} @ {voxel:g} m: {row['status']}", flush=True)
+                else:
+                    row["status"] = "ok"
+                    row["report"] = json.loads(line[len("REPORT "):])
+                    print_case(name, voxel, row["report"])
+                    prof = row["report"].get("profile")
+                    if prof and "tree" in prof:
+                        print(f"  pyinstrument, slowest stage '{prof['stage']}' (full profile: {prof['html']}):")
+                        for text in prof["tree"][:40]:
+                            print("    " + text)
+                    sys.stdout.flush()
+            row["wall_s"] = time.perf_counter() - started
+            doc["runs"].append(row)
+            out_path.parent.mkdir(parents=True, exist_ok=True)
+            out_path.write_text(json.dumps(doc, indent=1, default=float))  # after every case: a crash keeps the rest
+    print_summary([r for r in doc["runs"] if "voxel" in r])
+    print(f"\nresults: {out_path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

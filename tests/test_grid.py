@@ -1,0 +1,73 @@
+"""Tests of core/grid.py's fast binning: the same cells, in the same order, as np.unique."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from core.grid import VoxelGrid
+
+
+def unique_cells(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
+    """The reference: distinct voxel numbers by sorting (what core.pipeline did first)."""
+    nx, ny, _ = grid.shape
+    number = np.unique(grid.voxel_number(grid.cell_of(points)))
+    return np.column_stack([number % nx, (number // nx) % ny, number // (nx * ny)])
+
+
+def grid_around(points: np.ndarray, h: float) -> VoxelGrid:
+    """The pipeline's lattice: multiples of h, one layer under the data, one empty layer on top."""
+    lower = np.floor(points.min(axis=0) / h) * h - np.array([0.0, 0.0, h])
+    return VoxelGrid.around(np.zeros(3), points.max(axis=0) - lower, h, offset=lower, extra_top=1)
+
+
+@pytest.mark.parametrize("h", [1.0, 0.5, 0.3, 2.0])
+@pytest.mark.parametrize("chunk", [7, 1000, 1 << 16])
+def test_random_points_match_unique(h, chunk):
+    rng = np.random.default_rng(int(h * 10) + chunk)
+    points = rng.random((20_000, 3)) * np.array([60.0, 40.0, 25.0])
+    grid = grid_around(points, h)
+    local = points - grid.offset
+    cells = grid.occupied_cells(local, chunk=chunk)
+    np.testing.assert_array_equal(cells, unique_cells(grid, local))
+    occupancy = grid.occupancy(local, chunk=chunk)
+    assert occupancy.shape == grid.shape and occupancy.sum() == len(cells)
+
+
+def test_points_on_cell_boundaries_and_outside_the_grid_are_clipped_alike():
+    grid = VoxelGrid(np.zeros(3), np.array([0.0, 0.0, -1.0]), 0.5, (6, 5, 4))
+    edges = np.array([0.0, 0.5, 1.0, 2.5, 3.0, -0.5, 7.25, 1e6, -1e6])
+    points = np.stack(np.meshgrid(edges, edges, edges, indexing="ij"), axis=-1).reshape(-1, 3)
+    np.testing.assert_array_equal(grid.occupied_cells(points), unique_cells(grid, points))
+
+
+def test_las_like_points_with_large_offsets_match_unique():
+    """Coordinates stored to the millimetre at LV95 magnitudes, many exactly on voxel
+    boundaries, in acquisition (scan-line) order: the real files' case."""
+    rng = np.random.default_rng(3)
+    n = 300_000
+    line = np.sort(rng.integers(0, 400, n))  # scan lines along y, in order
+    x = 2_600_000.0 + np.round(rng.random(n) * 120.0, 3)
+    y = 1_200_000.0 + line * 0.25 + np.round(rng.random(n) * 0.25, 3)
+    z = 400.0 + np.round(rng.random(n) * 30.0 * (rng.random(n) < 0.5), 3)
+    world = np.column_stack([x, y, z])
+    for h in (1.0, 0.5):
+        grid = grid_around(world, h)
+        local = world - grid.offset
+        np.testing.assert_array_equal(grid.occupied_cells(local), unique_cells(grid, local))
+
+
+def test_real_file_points_match_unique(shared_data):
+    from core.readers.las import read_point_clouds
+
+    points = read_point_clouds(str(shared_data / "delft_ahn3/ahn3_cropped_2.laz"), crs="EPSG:28992")
+    for h in (1.0, 0.5):
+        grid = grid_around(np.concatenate([points.ground, points.building]), h)
+        local = points.building - grid.offset
+        np.testing.assert_array_equal(grid.occupied_cells(local), unique_cells(grid, local))
+
+
+def test_empty_point_set():
+    grid = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (3, 3, 3))
+    assert grid.occupied_cells(np.zeros((0, 3))).shape == (0, 3)
+    assert not grid.occupancy(np.zeros((0, 3))).any()
