@@ -17,12 +17,13 @@ SYSTEM_STAMP := .build/system.stamp
 VENV_STAMP := $(VENV)/.urbanvox-installed
 PLUGIN_STAMP := .qgis/.urbanvox-enabled
 
-.PHONY: help setup demo test package qgis-list clean distclean
+.PHONY: help setup demo test bench package qgis-list clean distclean
 
 help:
 	@echo "make demo       set up (QGIS, .venv, plugin) and run both algorithms on a synthetic district"
 	@echo "make test       set up and run the whole test suite (core + QGIS)"
 	@echo "make setup      only the setup: QGIS from apt, .venv with pinned deps, plugin enabled in .qgis/"
+	@echo "make bench      benchmarks: per-stage time, rate and memory, with baselines (BENCH_ARGS=--quick)"
 	@echo "make package    build dist/urbanvox-VERSION.zip, installable with Plugins > Install from ZIP"
 	@echo "make qgis-list  list the urbanvox algorithms as qgis_process sees them"
 	@echo "make clean      remove .build, .qgis, demo-output; make distclean also removes .venv"
@@ -72,3 +73,10 @@ clean:
 
 distclean: clean
 	rm -rf $(VENV) constraints.txt
+
+BENCH_ARGS ?=
+
+# Benchmarks are not tests: they print a table and write JSON to benchmarks/results/
+bench: setup
+	$(PYTHON) -m pip install --quiet --disable-pip-version-check -c constraints.txt -r benchmarks/requirements.txt
+	$(PYTHON) -m benchmarks $(BENCH_ARGS)

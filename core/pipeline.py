@@ -404,7 +404,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     report(0.2, "Ground level of every column")
     level = ground_level if ground_level is not None else column_ground_level(grid, ground)
     top_k = repair_height_field(level.top_k)
-    building_cells = _occupied_cells(grid, building)
+    building_cells = grid.occupied_cells(building)
     lap("ground")
 
     report(0.3, "Sorting voxels into ground, building and air")
@@ -540,13 +540,6 @@ def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):
     highest = np.zeros((nx, ny), np.int64)
     np.maximum.at(highest, (cells[:, 0], cells[:, 1]), cells[:, 2])
     return roof_hole_columns(has_building, ground_observed, highest, int(max_hole_cells))
-
-
-def _occupied_cells(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
-    """Distinct cells holding at least one point, via the paper's voxel number."""
-    nx, ny, _ = grid.shape
-    number = np.unique(grid.voxel_number(grid.cell_of(points)))
-    return np.column_stack([number % nx, (number // nx) % ny, number // (nx * ny)])
 
 
 def _plain(value: float) -> float | None:
