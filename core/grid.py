@@ -299,6 +299,46 @@ def available_memory() -> int:
     return 8 * 2**30
 
 
+#: Bytes per surface face (quad) that smoothing, projection and the measures
+#: hold at once: node and face arrays, the triangles of the best splits, the
+#: KD-trees and neighbour lists of the projection. Measured on the synthetic
+#: city (benchmarks/run.py: peak RSS of the projection stage over faces).
+BYTES_PER_FACE = 1600
+
+
+def check_face_memory(n_faces: int, n_columns: int, voxel_size: float, available: int | None = None,
+                      bytes_per_face: int = BYTES_PER_FACE) -> int:
+    """Estimate the bytes the surface stages need; refuse them before they allocate.
+
+    The voxel grid is checked by :func:`check_memory` before it exists; the
+    number of faces is known only once the surfaces are extracted, and a
+    city's surfaces can need more memory than its grid.
+
+    Examples
+    --------
+    >>> check_face_memory(10**6, 10**6, 1.0, available=8 * 2**30)
+    1600000000
+    >>> try:
+    ...     check_face_memory(10**8, 4 * 10**6, 1.0, available=8 * 2**30)
+    ... except UrbanvoxError as error:
+    ...     print(error)
+    The surfaces (100000000 faces) need about 149.0 GiB for smoothing and projection but only 8.0 GiB is available. Use a voxel size of at least 4.6, or tiles of at most 324 (TILE_SIZE).
+    """
+    needed = int(n_faces) * bytes_per_face
+    if available is None:
+        available = available_memory()
+    if needed > available:
+        factor = np.sqrt(needed / available)  # faces scale with 1 / size²
+        suggestion = np.ceil(voxel_size * factor * 1.05 * 10) / 10
+        per_column = n_faces / max(n_columns, 1)
+        side = np.floor(0.7 * np.sqrt(available / (bytes_per_face * per_column)))
+        raise UrbanvoxError(
+            f"The surfaces ({n_faces} faces) need about {needed / 2**30:.1f} GiB for smoothing and projection "
+            f"but only {available / 2**30:.1f} GiB is available. Use a voxel size of at least {suggestion:g}, "
+            f"or tiles of at most {max(1.0, side) * voxel_size:g} (TILE_SIZE).")
+    return needed
+
+
 def _fitting_tile(nz: int, voxel_size: float, available: int, bytes_per_voxel: int) -> float:
     """Side of the square tile whose grid, halo included, fits in ``available``."""
     side = np.sqrt(available / (bytes_per_voxel * nz))  # voxels, halo included

@@ -39,7 +39,7 @@ from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
-from .grid import GridWindow, VoxelGrid, check_memory
+from .grid import GridWindow, VoxelGrid, check_face_memory, check_memory
 from .ground import GroundLevel, column_ground_level
 from .manifold import make_well_composed, repair_height_field
 from .measure import BlockMeasures, measure_blocks
@@ -443,6 +443,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     columns = block_columns(blocks)
     del labels, blocks
     lap("surface")
+    check_face_memory(len(surface.quads), grid.shape[0] * grid.shape[1], params.voxel_size, params.max_memory)
 
     box = (grid.origin, grid.origin + np.asarray(grid.shape) * h)
     roles = NodeRoles.of(surface, *box)
