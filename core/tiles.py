@@ -118,7 +118,7 @@ class TilePiece:
     priority: np.ndarray | None = None    # (N,) True where an owned block uses the node
     quads: np.ndarray | None = None
     regions: np.ndarray | None = None     # owned blocks numbered 1..m in anchor order
-    anchors: np.ndarray | None = None     # (m, 3) i, j of the anchor column, lowest k
+    anchors: np.ndarray | None = None     # (m, 2) i, j of every owned block's anchor column
     blocks: BlockTable | None = None      # z relative to the domain
     measures: BlockMeasures | None = None
     footprint_columns: np.ndarray | None = None  # (P, 3): piece block id, global i, j
@@ -339,14 +339,15 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
                        crs.to_wkt(), tile_params, airborne, halo)
 
     windows = initial_windows(cores, tile, halo, domain, _building_columns(building, level, domain, h))
-    pending = [job(n, window) for n, window in enumerate(windows)]
     done: list[TilePiece] = []
     regrown = 0
-    with _Runner(options) as runner:
-        for piece in runner.run(pending, is_cancelled, progress, len(cores)):
+    with _Runner(options, job) as runner:
+        for n, window in enumerate(windows):
+            runner.submit(n, window)
+        for piece in runner.run(is_cancelled, progress, len(cores)):
             if piece.grow is not None:
                 regrown += 1
-                runner.submit(job(piece.index, piece.grow))
+                runner.submit(piece.index, piece.grow)
             else:
                 done.append(piece)
     done.sort(key=lambda p: p.index)
@@ -479,14 +480,21 @@ class _Cropper:
 
 
 class _Runner:
-    """Runs tile jobs in this process or on Dask, yielding pieces as they finish."""
+    """Runs tiles in this process or on Dask, yielding pieces as they finish.
 
-    def __init__(self, options: TileOptions):
+    Work is a queue of ``(tile index, window)``; a tile's job (its points
+    cropped to the window) is made only when it is sent, and at most two
+    per worker are in flight, so the copies of the points stay few.
+    """
+
+    def __init__(self, options: TileOptions, make_job: Callable[[int, Columns], TileJob]):
         self.options = options
+        self.make_job = make_job
         self.client = None
         self.cluster = None
-        self.queue: list = []
+        self.queue: list[tuple[int, Columns]] = []
         self.futures: list = []
+        self.in_flight = 1
 
     def __enter__(self) -> "_Runner":
         o = self.options
@@ -504,6 +512,7 @@ class _Runner:
                 self.cluster = LocalCluster(n_workers=int(o.workers), threads_per_worker=1,
                                             processes=True, dashboard_address=None)
                 self.client = Client(self.cluster)
+            self.in_flight = 2 * max(1, len(self.client.scheduler_info().get("workers", {})) or int(o.workers or 1))
         return self
 
     def __exit__(self, *exc) -> None:
@@ -514,30 +523,32 @@ class _Runner:
         if self.cluster is not None:
             self.cluster.close()
 
-    def submit(self, job: TileJob) -> None:
-        if self.client is None:
-            self.queue.append(job)
-        else:
+    def submit(self, index: int, window: Columns) -> None:
+        self.queue.append((index, window))
+
+    def _send(self) -> None:
+        while self.queue and len(self.futures) < self.in_flight:
+            job = self.make_job(*self.queue.pop(0))
             self.futures.append(self.client.submit(reconstruct_tile, job, pure=False))
 
-    def run(self, jobs: list[TileJob], is_cancelled, progress, total: int):
-        for job in jobs:
-            self.submit(job)
+    def run(self, is_cancelled, progress, total: int):
         finished = 0
         while self.queue or self.futures:
             if is_cancelled is not None and is_cancelled():
                 raise Cancelled()
             if self.client is None:
-                job = self.queue.pop(0)
+                job = self.make_job(*self.queue.pop(0))
 
                 def tile_progress(fraction: float, message: str, done: int = finished) -> None:
                     if progress is not None:
                         progress((done + fraction) / total, f"Tile {done + 1}/{total}: {message}")
 
                 piece = reconstruct_tile(job, tile_progress, is_cancelled)
+                del job
             else:
                 from dask.distributed import wait
 
+                self._send()
                 try:  # short waits, so that a cancel is seen
                     ready = wait(self.futures, timeout=0.5, return_when="FIRST_COMPLETED").done
                 except TimeoutError:
