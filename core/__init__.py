@@ -16,6 +16,15 @@ module                 step                                                  pap
 ``manifold.py``        well-composed labels: closed 2-manifold surfaces      §3.3
 ``surface.py``         conforming quads with the two regions they separate   §3.3
 ``eliminate.py``       unsupported boundary voxel elimination                §3.4
+``smooth.py``          vertex-only Catmull-Clark smoothing                   §4.1
+``project.py``         nodal normals, MLS projection onto the data           §4.2
+``quality.py``         face quality, best quad split, move acceptance        §4
+``intersect.py``       moves that would make faces cross are undone          §4.2
+``measure.py``         per-block volume, areas, quality, distance to data
+``export.py``          mesh files (.msh .vtu .obj .stl .ply)
 ``pipeline.py``        the steps in order, with progress and cancel
+``clusters.py``        scattered data: one grid per cluster, merged
+``tiles.py``           tiles with a halo, here or on Dask, merged as one run
+``cli.py``             ``python -m core``: the method from the command line
 =====================  ====================================================  ========
 """
