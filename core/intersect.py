@@ -8,9 +8,13 @@ mesher then refuses the model ("a segment and a facet intersect").
 a triangle they do not share a node with, and undoes the moves of their
 nodes until none is left.
 
-Broad phase: a KD-tree over triangle centres, pairs closer than the largest
-triangle diameter. Narrow phase: an edge of one triangle crossing the other
-(Moller-Trumbore on segments), both ways; coplanar touching is not reported.
+Broad phase: two triangles can only meet if their centres are closer than
+the sum of their reaches (the largest distance from a triangle's centre to
+its corners); KD-trees over the centres find those pairs, the few large
+triangles in a class of their own so that they do not widen the search of
+all the others. Then their bounding boxes must overlap. Narrow phase: an
+edge of one triangle crossing the other (Moller-Trumbore on segments), both
+ways; coplanar touching is not reported.
 """
 from __future__ import annotations
 
@@ -22,10 +26,31 @@ from scipy.spatial import cKDTree
 from .errors import Cancelled
 from .quality import best_split
 
+#: Quantiles of the triangles' reach that split them into size classes searched apart.
+_CLASS_QUANTILES = (0.9, 0.99)
+
 
 def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarray,
-                       chunk: int = 20_000, is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
+                       chunk: int = 20_000, is_cancelled: Callable[[], bool] | None = None,
+                       among: np.ndarray | None = None) -> np.ndarray:
     """Pairs ``(a, b)`` of triangles that cross, ``a`` among the ``focus`` ones.
+
+    Each crossing pair is reported once, even when both triangles are in
+    ``focus``.
+
+    Parameters
+    ----------
+    nodes : ndarray (N, 3)
+    triangles : ndarray of int (T, 3)
+    focus : ndarray of int
+        Triangles to test against all others.
+    chunk : int
+        Triangles searched at a time (bounds the memory of the pair lists).
+    is_cancelled : callable, optional
+    among : ndarray of int, optional
+        Only pairs with at least one triangle in ``among`` are looked for: the
+        caller knows that the others do not cross (they were tested before and
+        have not moved since).
 
     Examples
     --------
@@ -38,30 +63,110 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     >>> crossing_triangles(nodes, tris, np.array([0, 2])).tolist()
     [[0, 1]]
     """
-    if len(focus) == 0:
-        return np.zeros((0, 2), dtype=np.int64)
-    p = nodes[triangles]
-    centre = p.mean(axis=1)
-    reach = np.linalg.norm(p - centre[:, None, :], axis=2).max()
-    lower, upper = p.min(axis=1), p.max(axis=1)
-    everything = cKDTree(centre)
+    none = np.zeros((0, 2), dtype=np.int64)
+    if len(focus) == 0 or (among is not None and len(among) == 0):
+        return none
+    seeds = np.asarray(focus if among is None else among, dtype=np.int64)
+    t0, t1, t2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    centre = (nodes[t0] + nodes[t1] + nodes[t2]) / 3
+    # Everything below works on the triangles near a seed only: with few
+    # seeds (the later rounds of undo_crossings) that is a small part.
+    corner = nodes[triangles]
+    reach = _reach(corner, centre)
+    sub = _near_cells(centre, seeds, 2 * reach.max())
+    tri, p, reach = triangles[sub], corner[sub], reach[sub]
+    seeds = np.searchsorted(sub, seeds)
+    is_seed = np.zeros(len(sub), dtype=bool)
+    is_seed[seeds] = True
+    in_focus = np.zeros(len(triangles), dtype=bool)
+    in_focus[focus] = True
+    in_focus = in_focus[sub]
+    lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2])
+    upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2])
     found = []
-    for start in range(0, len(focus), chunk):
-        if is_cancelled is not None and is_cancelled():
-            raise Cancelled()
-        part = focus[start:start + chunk]
-        pairs = cKDTree(centre[part]).sparse_distance_matrix(everything, 2 * reach, output_type="ndarray")
-        a = part[pairs["i"]]
-        b = pairs["j"].astype(np.int64)
-        # Bounding boxes must overlap; triangles sharing a node touch by
-        # construction, and the quality control already covers them.
-        keep = np.all((lower[a] <= upper[b]) & (lower[b] <= upper[a]), axis=1)
+    for a, b in _close_pairs(centre[sub], reach, seeds, chunk, is_cancelled):
+        # A pair of two seeds is found from both sides: keep it once. At least
+        # one of the two must be in focus.
+        keep = ~(is_seed[b] & (b < a)) & (in_focus[a] | in_focus[b])
+        # Bounding boxes must overlap (axis by axis: cheaper than on (P, 3) arrays).
+        for c in range(3):
+            keep &= (lower[a, c] <= upper[b, c]) & (lower[b, c] <= upper[a, c])
         a, b = a[keep], b[keep]
-        shared = (triangles[a][:, :, None] == triangles[b][:, None, :]).any(axis=(1, 2))
+        # Triangles sharing a node touch by construction, and the quality
+        # control already covers them.
+        ta, tb = tri[a], tri[b]
+        shared = np.zeros(len(a), dtype=bool)
+        for i in range(3):
+            for j in range(3):
+                shared |= ta[:, i] == tb[:, j]
         a, b = a[~shared], b[~shared]
         crossing = _edges_cross(p[a], p[b]) | _edges_cross(p[b], p[a])
-        found.append(np.column_stack([a[crossing], b[crossing]]))
-    return np.concatenate(found)
+        a, b = a[crossing], b[crossing]
+        swap = ~in_focus[a]
+        found.append(np.column_stack([np.where(swap, b, a), np.where(swap, a, b)]))
+    return sub[np.concatenate(found)] if found else none
+
+
+def _reach(corner: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Largest distance from each triangle's centre to its corners: the
+    triangle lies in the ball of that radius around its centre."""
+    squared = np.zeros(len(centre))
+    for k in range(3):
+        d = corner[:, k] - centre
+        squared = np.maximum(squared, d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2)
+    return np.sqrt(squared)
+
+
+def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndarray:
+    """Sorted indices of the triangles whose centre is in a cell of side
+    ``radius`` next to (or in) a seed's cell.
+
+    Every centre within ``radius`` of a seed's is among them (so are the
+    seeds): a cheap filter that keeps the search small when the seeds are few.
+    """
+    radius = max(float(radius), 1e-300)
+    lower = centre.min(axis=0)
+    cell = np.floor((centre - lower) / radius).astype(np.int64) + 1  # +1: room for the -1 neighbours
+    dims = cell.max(axis=0) + 2
+    key = cell[:, 0] + dims[0] * (cell[:, 1] + dims[1] * cell[:, 2])
+    steps = np.array([dx + dims[0] * (dy + dims[1] * dz)
+                      for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
+    seed_cells = np.unique(key[seeds])
+    wanted = np.unique((seed_cells[:, None] + steps[None, :]).ravel())
+    return np.flatnonzero(np.isin(key, wanted))
+
+
+def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk: int,
+                 is_cancelled: Callable[[], bool] | None):
+    """Yield arrays ``(a, b)``: every pair of a seed ``a`` and another triangle
+    ``b`` whose centres are closer than their reaches added up (and more).
+
+    One search radius for all would be twice the largest reach, and the few
+    stretched triangles would widen it for every one: triangles are put in
+    size classes, and each pair of classes is searched with its own radius.
+    """
+    everyone = np.arange(len(centre))
+    bounds = np.quantile(reach, _CLASS_QUANTILES)
+    seed_class = np.searchsorted(bounds, reach[seeds])
+    other_class = np.searchsorted(bounds, reach)
+    classes = range(len(bounds) + 1)
+    others = [everyone[other_class == k] for k in classes]
+    trees = [cKDTree(centre[o]) if len(o) else None for o in others]
+    for k in classes:
+        s = seeds[seed_class == k]
+        if len(s) == 0:
+            continue
+        for o, tree in zip(others, trees):
+            if tree is None:
+                continue
+            # Slightly wider than needed: round-off must not lose a touching pair.
+            radius = (reach[s].max() + reach[o].max()) * (1 + 1e-9)
+            for start in range(0, len(s), chunk):
+                if is_cancelled is not None and is_cancelled():
+                    raise Cancelled()
+                part = s[start:start + chunk]
+                pairs = cKDTree(centre[part]).sparse_distance_matrix(tree, radius, output_type="ndarray")
+                yield part[pairs["i"]], o[pairs["j"]]
 
 
 def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -110,13 +215,19 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     moved = moved.copy()
     undone = 0
     near = None  # after a round, only the neighbourhood of what was undone can still cross
+    triangles, _ = best_split(positions, quads)
+    # Triangles changed since the first round (None: that round, all of them).
+    # A pair that crossed then lost every move of its nodes, so a pair found
+    # later has a triangle changed since; the others need no new test.
+    changed = None
+    changed_quads = np.zeros(len(quads), dtype=bool)
     for _ in range(max_rounds):
-        triangles, _ = best_split(positions, quads)
         focus = moved[triangles].any(axis=1)
         if near is not None:
             centre = positions[triangles].mean(axis=1)
             focus &= np.all((centre >= near[0]) & (centre <= near[1]), axis=1)
-        pairs = crossing_triangles(positions, triangles, np.flatnonzero(focus), is_cancelled=is_cancelled)
+        pairs = crossing_triangles(positions, triangles, np.flatnonzero(focus), is_cancelled=is_cancelled,
+                                   among=changed)
         if len(pairs) == 0:
             break
         culprits = np.unique(triangles[pairs.ravel()])
@@ -129,4 +240,13 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         span = 4 * np.linalg.norm(np.ptp(positions[quads[0]], axis=0))  # a few faces around
         near = (np.minimum(old[culprits], new[culprits]).min(axis=0) - span,
                 np.maximum(old[culprits], new[culprits]).max(axis=0) + span)
+        # Only the quads around the nodes put back change their split.
+        reverted = np.zeros(len(old), dtype=bool)
+        reverted[culprits] = True
+        touched = np.flatnonzero(reverted[quads].any(axis=1))
+        split = best_split(positions, quads[touched])[0].reshape(-1, 2, 3)
+        triangles[2 * touched] = split[:, 0]
+        triangles[2 * touched + 1] = split[:, 1]
+        changed_quads[touched] = True
+        changed = np.flatnonzero(np.repeat(changed_quads, 2))
     return positions, moved, undone
