@@ -68,21 +68,7 @@ def best_split(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
     >>> tri.tolist()
     [[1, 2, 3], [1, 3, 0]]
     """
-    p = nodes[quads]
-    normal = quad_normals(nodes, quads)
-    splits = (((0, 1, 2), (0, 2, 3)), ((1, 2, 3), (1, 3, 0)))
-    scores = []
-    for first, second in splits:
-        worst = None
-        for tri in (first, second):
-            a, b, c = p[:, tri[0]], p[:, tri[1]], p[:, tri[2]]
-            q = triangle_quality(a, b, c)
-            facing = np.einsum("ij,ij->i", np.cross(b - a, c - a), normal) > 0
-            q = np.where(facing, q, 0.0)
-            worst = q if worst is None else np.minimum(worst, q)
-        scores.append(worst)
-    use_second = scores[1] > scores[0]
-    quality = np.where(use_second, scores[1], scores[0])
+    use_second, quality, _ = _split_quality(nodes, quads)
     order = np.where(use_second[:, None], np.array([1, 2, 3, 1, 3, 0]), np.array([0, 1, 2, 0, 2, 3]))
     triangles = np.take_along_axis(quads, order, axis=1).reshape(-1, 3)
     return triangles, quality
@@ -90,7 +76,54 @@ def best_split(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def quad_quality(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
     """Quality of every quad under its best split."""
-    return best_split(nodes, quads)[1]
+    return _split_quality(nodes, quads)[1]
+
+
+def _split_quality(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which split of each quad is better, its quality, and the quad's normal.
+
+    The four triangles of the two splits share their six edges (four sides,
+    two diagonals): each length and difference is computed once. The
+    arithmetic of every quantity is that of :func:`triangle_quality` and
+    :func:`quad_normals`, so the results are the same to the last bit.
+
+    Returns
+    -------
+    use_second : ndarray of bool (M,)
+        Split along the diagonal 1-3 (triangles 1 2 3 and 1 3 0), else 0-2.
+    quality : ndarray (M,)
+    normal : ndarray (M, 3)
+        As :func:`quad_normals`.
+    """
+    p = nodes[quads]
+    p0, p1, p2, p3 = p[:, 0], p[:, 1], p[:, 2], p[:, 3]
+    d01, d12, d23, d30 = p1 - p0, p2 - p1, p3 - p2, p0 - p3
+    d02, d13 = p2 - p0, p3 - p1
+    l01, l12, l23, l30, l02, l13 = (_length(d) for d in (d01, d12, d23, d30, d02, d13))
+    normal = 0.5 * np.cross(d02, d13)
+
+    def quality(ab, bc, ca, u, v):
+        # triangle_quality with sides ab, bc, ca and cross(b - a, c - a) = cross(u, v),
+        # zero when the triangle faces away from the quad.
+        cross = np.cross(u, v)
+        area = 0.5 * _length(cross)
+        longest = np.maximum(np.maximum(ab, bc), ca)
+        denominator = (ab + bc + ca) * longest
+        q = np.divide(4 * np.sqrt(3) * area, denominator, out=np.zeros_like(area), where=denominator > 0)
+        facing = np.einsum("ij,ij->i", cross, normal) > 0
+        return np.where(facing, q, 0.0)
+
+    # |a - c| = |c - a| exactly, and p3 - p0 = -(p0 - p3) exactly.
+    first = np.minimum(quality(l01, l12, l02, d01, d02), quality(l02, l23, l30, d02, -d30))
+    second = np.minimum(quality(l12, l23, l13, d12, d13), quality(l13, l30, l01, d13, -d01))
+    use_second = second > first
+    return use_second, np.where(use_second, second, first), normal
+
+
+def _length(v: np.ndarray) -> np.ndarray:
+    """Euclidean length of rows of 3 (the arithmetic of ``np.linalg.norm(v, axis=1)``)."""
+    x, y, z = v[:, 0], v[:, 1], v[:, 2]
+    return np.sqrt(x * x + y * y + z * z)
 
 
 def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold: float,
@@ -122,8 +155,8 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
     moving = np.any(new != old, axis=1)
     faces = np.flatnonzero(moving[quads].any(axis=1))
     sub = quads[faces]
-    floor = np.minimum(quad_quality(old, sub), threshold)
-    n_old = quad_normals(old, sub)
+    _, q_old, n_old = _split_quality(old, sub)
+    floor = np.minimum(q_old, threshold)
     positions = new.copy()
     check = np.arange(len(sub))  # faces whose nodes changed since they were checked
     for _ in range(max_rounds):
@@ -131,8 +164,8 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
             raise Cancelled()
         if len(check) == 0:
             break
-        q = quad_quality(positions, sub[check])
-        turned = np.einsum("ij,ij->i", quad_normals(positions, sub[check]), n_old[check]) <= 0
+        _, q, normal = _split_quality(positions, sub[check])
+        turned = np.einsum("ij,ij->i", normal, n_old[check]) <= 0
         bad = check[(q < floor[check] - 1e-12) | turned]
         if len(bad) == 0:
             break
