@@ -63,27 +63,37 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     >>> crossing_triangles(nodes, tris, np.array([0, 2])).tolist()
     [[0, 1]]
     """
-    none = np.zeros((0, 2), dtype=np.int64)
     if len(focus) == 0 or (among is not None and len(among) == 0):
+        return np.zeros((0, 2), dtype=np.int64)
+    corner = nodes[triangles]
+    centre = corner.mean(axis=1)
+    in_focus = np.zeros(len(triangles), dtype=bool)
+    in_focus[focus] = True
+    return _crossing_pairs(nodes, triangles, centre, _reach(corner, centre), in_focus,
+                           focus if among is None else among, chunk, is_cancelled)
+
+
+def _crossing_pairs(nodes: np.ndarray, triangles: np.ndarray, centre: np.ndarray, reach: np.ndarray,
+                    in_focus: np.ndarray, seeds: np.ndarray, chunk: int,
+                    is_cancelled: Callable[[], bool] | None) -> np.ndarray:
+    """:func:`crossing_triangles` with the centres and reaches of all
+    triangles given (:func:`undo_crossings` updates them from round to round),
+    ``focus`` as a mask, and only pairs with a triangle among ``seeds``."""
+    none = np.zeros((0, 2), dtype=np.int64)
+    if len(seeds) == 0:
         return none
-    seeds = np.asarray(focus if among is None else among, dtype=np.int64)
-    t0, t1, t2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
-    centre = (nodes[t0] + nodes[t1] + nodes[t2]) / 3
     # Everything below works on the triangles near a seed only: with few
     # seeds (the later rounds of undo_crossings) that is a small part.
-    corner = nodes[triangles]
-    reach = _reach(corner, centre)
     sub = _near_cells(centre, seeds, 2 * reach.max())
-    tri, p, reach = triangles[sub], corner[sub], reach[sub]
+    tri, reach = triangles[sub], reach[sub]
+    p = nodes[tri]
     seeds = np.searchsorted(sub, seeds)
     is_seed = np.zeros(len(sub), dtype=bool)
     is_seed[seeds] = True
-    in_focus = np.zeros(len(triangles), dtype=bool)
-    in_focus[focus] = True
     in_focus = in_focus[sub]
     lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2])
     upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2])
-    found = []
+    found = [none]
     for a, b in _close_pairs(centre[sub], reach, seeds, chunk, is_cancelled):
         # A pair of two seeds is found from both sides: keep it once. At least
         # one of the two must be in focus.
@@ -104,7 +114,7 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
         a, b = a[crossing], b[crossing]
         swap = ~in_focus[a]
         found.append(np.column_stack([np.where(swap, b, a), np.where(swap, a, b)]))
-    return sub[np.concatenate(found)] if found else none
+    return sub[np.concatenate(found)]
 
 
 def _reach(corner: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -216,6 +226,10 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     undone = 0
     near = None  # after a round, only the neighbourhood of what was undone can still cross
     triangles, _ = best_split(positions, quads)
+    corner = positions[triangles]
+    centre = corner.mean(axis=1)
+    reach = _reach(corner, centre)
+    del corner
     # Triangles changed since the first round (None: that round, all of them).
     # A pair that crossed then lost every move of its nodes, so a pair found
     # later has a triangle changed since; the others need no new test.
@@ -224,10 +238,9 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     for _ in range(max_rounds):
         focus = moved[triangles].any(axis=1)
         if near is not None:
-            centre = positions[triangles].mean(axis=1)
             focus &= np.all((centre >= near[0]) & (centre <= near[1]), axis=1)
-        pairs = crossing_triangles(positions, triangles, np.flatnonzero(focus), is_cancelled=is_cancelled,
-                                   among=changed)
+        pairs = _crossing_pairs(positions, triangles, centre, reach, focus,
+                                np.flatnonzero(focus) if changed is None else changed, 20_000, is_cancelled)
         if len(pairs) == 0:
             break
         culprits = np.unique(triangles[pairs.ravel()])
@@ -249,4 +262,8 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         triangles[2 * touched + 1] = split[:, 1]
         changed_quads[touched] = True
         changed = np.flatnonzero(np.repeat(changed_quads, 2))
+        now = np.concatenate([2 * touched, 2 * touched + 1])
+        corner = positions[triangles[now]]
+        centre[now] = corner.mean(axis=1)
+        reach[now] = _reach(corner, centre[now])
     return positions, moved, undone
