@@ -59,13 +59,29 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     return np.divide(summed, length, out=np.zeros_like(summed), where=length > 0)
 
 
-def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles) -> np.ndarray:
-    """Normals pointing out of the region that owns each node (block, else ground)."""
+def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
+                    select: np.ndarray | None = None) -> np.ndarray:
+    """Normals pointing out of the region that owns each node (block, else ground).
+
+    Parameters
+    ----------
+    select : ndarray of bool (N,), optional
+        Nodes whose normal is wanted; the others get a zero vector, and the
+        faces touching none of them are not looked at. Default: all nodes.
+    """
     n = len(nodes)
+    if select is None:
+        select = np.ones(n, dtype=bool)
     block_quads, _ = model.block_faces()
     ground_quads = model.closed_surface(GROUND_REGION)
-    return np.where(roles.on_block[:, None], node_normals(nodes, block_quads, n),
-                    node_normals(nodes, ground_quads, n))
+    normal = np.zeros((n, 3))
+    for quads, wanted in ((block_quads, select & roles.on_block), (ground_quads, select & ~roles.on_block)):
+        if wanted.any():
+            # The faces around the wanted nodes, in their order: each node's
+            # sum runs over the same faces in the same order as with all faces.
+            quads = quads[wanted[quads].any(axis=1)]
+            normal[wanted] = node_normals(nodes, quads, n)[wanted]
+    return normal
 
 
 def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
@@ -81,6 +97,15 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     flat : ndarray of bool (Q,)
         The neighbourhood spans a plane (not a line or a point).
     """
+    centre, vectors, flat = _principal_axes(data, tree, at, sigma, k)
+    return centre, vectors[:, :, 0], flat
+
+
+def _principal_axes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
+                    k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`mls_planes` with all three axes (Q, 3, 3), smallest first: the
+    normal is ``[:, :, 0]``, a strided view, as the callers' dot products
+    expect (``einsum`` rounds differently on a contiguous copy)."""
     k = min(k, len(data))
     dist, idx = tree.query(at, k=k, workers=-1)
     dist = dist.reshape(len(at), k)
@@ -93,7 +118,7 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     cov = np.einsum("qk,qki,qkj->qij", w, d, d)
     values, vectors = np.linalg.eigh(cov)
     flat = values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
-    return centre, vectors[:, :, 0], flat
+    return centre, vectors, flat
 
 
 def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, select: np.ndarray,
@@ -137,7 +162,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
         return nodes, stats
     if is_cancelled is not None and is_cancelled():
         raise Cancelled()
-    normal = outward_normals(model, nodes, roles)[idx_nodes]
+    normal = outward_normals(model, nodes, roles, select)[idx_nodes]
     # Constrained coordinates are not moved: drop them from the direction.
     normal[roles.fixed_axes[idx_nodes]] = 0.0
     length = np.linalg.norm(normal, axis=1, keepdims=True)
@@ -152,7 +177,8 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     found = near < len(data)
     offset = data[np.where(found, near, 0)] - p[:, None, :]
     along = np.einsum("qkc,qc->qk", offset, normal)
-    off_line = np.linalg.norm(offset - along[..., None] * normal[:, None, :], axis=2)
+    across = offset - along[..., None] * normal[:, None, :]
+    off_line = np.sqrt(across[..., 0] ** 2 + across[..., 1] ** 2 + across[..., 2] ** 2)
     off_line[~found] = np.inf
     ranked = np.argsort(off_line, axis=1)[:, :_TRIES]
     cos_max = np.cos(np.radians(max_angle))
@@ -164,8 +190,10 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
         todo = np.flatnonzero(~done & np.isfinite(off_line[np.arange(len(p)), ranked[:, attempt]]))
         if len(todo) == 0:
             break
-        chosen = data[near[todo, ranked[todo, attempt]]]
-        centre, plane_normal, flat = mls_planes(data, tree, chosen, sigma=0.5 * voxel_size)
+        # Neighbouring nodes often pick the same data point: one plane per point.
+        chosen, which = np.unique(near[todo, ranked[todo, attempt]], return_inverse=True)
+        centre, axes, flat = _principal_axes(data, tree, data[chosen], 0.5 * voxel_size, _PLANE_POINTS)
+        centre, flat, plane_normal = centre[which], flat[which], axes[which][:, :, 0]
         cos = np.einsum("qc,qc->q", plane_normal, normal[todo])
         compatible = flat & (np.abs(cos) >= cos_max)
         t = np.einsum("qc,qc->q", centre - p[todo], plane_normal) / np.where(compatible, cos, 1.0)
