@@ -88,16 +88,12 @@ def _crossing_pairs(nodes: np.ndarray, triangles: np.ndarray, centre: np.ndarray
     tri, reach = triangles[sub], reach[sub]
     p = nodes[tri]
     seeds = np.searchsorted(sub, seeds)
-    is_seed = np.zeros(len(sub), dtype=bool)
-    is_seed[seeds] = True
     in_focus = in_focus[sub]
     lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2])
     upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2])
     found = [none]
     for a, b in _close_pairs(centre[sub], reach, seeds, chunk, is_cancelled):
-        # A pair of two seeds is found from both sides: keep it once. At least
-        # one of the two must be in focus.
-        keep = ~(is_seed[b] & (b < a)) & (in_focus[a] | in_focus[b])
+        keep = in_focus[a] | in_focus[b]
         # Bounding boxes must overlap (axis by axis: cheaper than on (P, 3) arrays).
         for c in range(3):
             keep &= (lower[a, c] <= upper[b, c]) & (lower[b, c] <= upper[a, c])
@@ -151,32 +147,50 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk
     """Yield arrays ``(a, b)``: every pair of a seed ``a`` and another triangle
     ``b`` whose centres are closer than their reaches added up (and more).
 
+    Each pair comes once, also a pair of two seeds (then either may be ``a``).
     One search radius for all would be twice the largest reach, and the few
     stretched triangles would widen it for every one: triangles are put in
     size classes, and each pair of classes is searched with its own radius.
     """
-    everyone = np.arange(len(centre))
+    is_seed = np.zeros(len(centre), dtype=bool)
+    is_seed[seeds] = True
     bounds = np.quantile(reach, _CLASS_QUANTILES)
-    seed_class = np.searchsorted(bounds, reach[seeds])
-    other_class = np.searchsorted(bounds, reach)
+    size_class = np.searchsorted(bounds, reach)
     classes = range(len(bounds) + 1)
-    others = [everyone[other_class == k] for k in classes]
-    trees = [cKDTree(centre[o]) if len(o) else None for o in others]
+    seed_of = [np.flatnonzero(is_seed & (size_class == k)) for k in classes]
+    other_of = [np.flatnonzero(~is_seed & (size_class == k)) for k in classes]
+    seed_tree = [cKDTree(centre[s]) if len(s) else None for s in seed_of]
+    other_tree = [cKDTree(centre[o]) if len(o) else None for o in other_of]
     for k in classes:
-        s = seeds[seed_class == k]
+        s = seed_of[k]
         if len(s) == 0:
             continue
-        for o, tree in zip(others, trees):
+        # Seeds with seeds of the same or a larger class (each pair of seeds
+        # once), then with every other triangle.
+        targets = [(seed_of[m], seed_tree[m], m == k) for m in classes if m >= k]
+        targets += [(other_of[m], other_tree[m], False) for m in classes]
+        for o, tree, same in targets:
             if tree is None:
                 continue
+            if is_cancelled is not None and is_cancelled():
+                raise Cancelled()
             # Slightly wider than needed: round-off must not lose a touching pair.
             radius = (reach[s].max() + reach[o].max()) * (1 + 1e-9)
+            if same and len(s) <= 20 * chunk:
+                pairs = tree.query_pairs(radius, output_type="ndarray")
+                for start in range(0, len(pairs), 16 * chunk):
+                    part = pairs[start:start + 16 * chunk]
+                    yield s[part[:, 0]], s[part[:, 1]]
+                continue
             for start in range(0, len(s), chunk):
                 if is_cancelled is not None and is_cancelled():
                     raise Cancelled()
                 part = s[start:start + chunk]
                 pairs = cKDTree(centre[part]).sparse_distance_matrix(tree, radius, output_type="ndarray")
-                yield part[pairs["i"]], o[pairs["j"]]
+                a, b = part[pairs["i"]], o[pairs["j"]]
+                if same:  # found from both sides
+                    a, b = a[a < b], b[a < b]
+                yield a, b
 
 
 def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:
