@@ -89,22 +89,24 @@ def _crossing_pairs(nodes: np.ndarray, triangles: np.ndarray, centre: np.ndarray
     p = nodes[tri]
     seeds = np.searchsorted(sub, seeds)
     in_focus = in_focus[sub]
-    lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2])
-    upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2])
+    # Per-axis rows (3, T): the filters below gather one contiguous row at a time.
+    lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
+    upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
+    corners = tri.T.copy()
     found = [none]
     for a, b in _close_pairs(centre[sub], reach, seeds, chunk, is_cancelled):
         keep = in_focus[a] | in_focus[b]
-        # Bounding boxes must overlap (axis by axis: cheaper than on (P, 3) arrays).
+        # Bounding boxes must overlap.
         for c in range(3):
-            keep &= (lower[a, c] <= upper[b, c]) & (lower[b, c] <= upper[a, c])
+            keep &= (lower[c][a] <= upper[c][b]) & (lower[c][b] <= upper[c][a])
         a, b = a[keep], b[keep]
         # Triangles sharing a node touch by construction, and the quality
         # control already covers them.
-        ta, tb = tri[a], tri[b]
+        ta, tb = corners[:, a], corners[:, b]
         shared = np.zeros(len(a), dtype=bool)
         for i in range(3):
             for j in range(3):
-                shared |= ta[:, i] == tb[:, j]
+                shared |= ta[i] == tb[j]
         a, b = a[~shared], b[~shared]
         crossing = _edges_cross(p[a], p[b]) | _edges_cross(p[b], p[a])
         a, b = a[crossing], b[crossing]
