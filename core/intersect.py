@@ -8,13 +8,15 @@ mesher then refuses the model ("a segment and a facet intersect").
 a triangle they do not share a node with, and undoes the moves of their
 nodes until none is left.
 
-Broad phase: two triangles can only meet if their centres are closer than
-the sum of their reaches (the largest distance from a triangle's centre to
-its corners); KD-trees over the centres find those pairs, the few large
-triangles in a class of their own so that they do not widen the search of
-all the others. Then their bounding boxes must overlap. Narrow phase: an
-edge of one triangle crossing the other (Moller-Trumbore on segments), both
-ways; coplanar touching is not reported.
+Broad phase: two faces can only meet if their centres are closer than the
+sum of their reaches (the largest distance from a face's centre to its
+corners); KD-trees over the centres find those pairs, the few large faces in
+classes of their own so that they do not widen the search of all the
+others. :func:`undo_crossings` searches quads (half as many as triangles, and
+a quad's ball, which holds both its triangles, is smaller than a triangle's
+own) and splits only the quads it meets. Then the triangles' bounding boxes
+must overlap. Narrow phase: an edge of one triangle crossing the other
+(Moller-Trumbore on segments), both ways; coplanar touching is not reported.
 """
 from __future__ import annotations
 
@@ -89,30 +91,47 @@ def _crossing_pairs(nodes: np.ndarray, triangles: np.ndarray, centre: np.ndarray
     p = nodes[tri]
     seeds = np.searchsorted(sub, seeds)
     in_focus = in_focus[sub]
-    # Per-axis rows (3, T): the filters below gather one contiguous row at a time.
-    lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
-    upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
-    corners = tri.T.copy()
+    rows = _pair_rows(p)
     found = [none]
     for a, b in _close_pairs(centre[sub], reach, seeds, chunk, is_cancelled):
-        keep = in_focus[a] | in_focus[b]
-        # Bounding boxes must overlap.
-        for c in range(3):
-            keep &= (lower[c][a] <= upper[c][b]) & (lower[c][b] <= upper[c][a])
-        a, b = a[keep], b[keep]
-        # Triangles sharing a node touch by construction, and the quality
-        # control already covers them.
-        ta, tb = corners[:, a], corners[:, b]
-        shared = np.zeros(len(a), dtype=bool)
-        for i in range(3):
-            for j in range(3):
-                shared |= ta[i] == tb[j]
-        a, b = a[~shared], b[~shared]
-        crossing = _edges_cross(p[a], p[b]) | _edges_cross(p[b], p[a])
-        a, b = a[crossing], b[crossing]
-        swap = ~in_focus[a]
-        found.append(np.column_stack([np.where(swap, b, a), np.where(swap, a, b)]))
+        found.append(_crossing_of(a, b, tri, p, rows, in_focus))
     return sub[np.concatenate(found)]
+
+
+def _pair_rows(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners of the triangles' boxes as per-axis rows (3, T):
+    the pair filters gather one contiguous row at a time."""
+    lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
+    upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
+    return lower, upper
+
+
+def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, p: np.ndarray,
+                 rows: tuple[np.ndarray, np.ndarray], in_focus: np.ndarray) -> np.ndarray:
+    """The candidate pairs ``(a, b)`` that cross, with at least one triangle in
+    focus, that one first.
+
+    ``tri`` (T, 3) are node indices, ``p`` (T, 3, 3) corners, ``rows`` from
+    :func:`_pair_rows`.
+    """
+    lower, upper = rows
+    keep = in_focus[a] | in_focus[b]
+    # Bounding boxes must overlap.
+    for c in range(3):
+        keep &= (lower[c][a] <= upper[c][b]) & (lower[c][b] <= upper[c][a])
+    a, b = a[keep], b[keep]
+    # Triangles sharing a node touch by construction, and the quality
+    # control already covers them.
+    ta, tb = tri[a].T, tri[b].T
+    shared = np.zeros(len(a), dtype=bool)
+    for i in range(3):
+        for j in range(3):
+            shared |= ta[i] == tb[j]
+    a, b = a[~shared], b[~shared]
+    crossing = _edges_cross(p[a], p[b]) | _edges_cross(p[b], p[a])
+    a, b = a[crossing], b[crossing]
+    swap = ~in_focus[a]
+    return np.column_stack([np.where(swap, b, a), np.where(swap, a, b)])
 
 
 def _reach(corner: np.ndarray, centre: np.ndarray) -> np.ndarray:
@@ -219,9 +238,15 @@ def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: np.ndarray,
-                   max_rounds: int = 20,
+                   max_rounds: int = 20, chunk: int = 20_000,
                    is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Undo moves until no moved triangle crosses another.
+
+    Each quad is split along its best diagonal (:func:`core.quality.best_split`)
+    at the current positions. A round finds the triangles touching a moved
+    node that cross another (after the first round, only those whose centre
+    is near what the last round undid), and puts back all the moved nodes of
+    both.
 
     Parameters
     ----------
@@ -231,6 +256,8 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         Nodes whose move was kept so far.
     quads : ndarray (M, 4)
         Every face of the model.
+    chunk : int
+        Quads searched at a time (bounds the memory of the pair lists).
 
     Returns
     -------
@@ -241,25 +268,26 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     moved = moved.copy()
     undone = 0
     near = None  # after a round, only the neighbourhood of what was undone can still cross
-    triangles, _ = best_split(positions, quads)
-    corner = positions[triangles]
+    corner = positions[quads]
     centre = corner.mean(axis=1)
     reach = _reach(corner, centre)
     del corner
-    # Triangles changed since the first round (None: that round, all of them).
-    # A pair that crossed then lost every move of its nodes, so a pair found
-    # later has a triangle changed since; the others need no new test.
-    changed = None
-    changed_quads = np.zeros(len(quads), dtype=bool)
+    # The best split of the quads met so far; a quad whose nodes are put back
+    # is split again when it is next met.
+    triangles = np.zeros((2 * len(quads), 3), dtype=quads.dtype)
+    split = np.zeros(len(quads), dtype=bool)
+    # First round: the quads around a moved node. Later: the quads changed
+    # since the first round. A pair that crossed then lost every move of its
+    # nodes, so a pair found later has a triangle changed since; the others
+    # were tested then and need no new test.
+    seeds = np.flatnonzero(moved[quads].any(axis=1))
+    changed = np.zeros(len(quads), dtype=bool)
     for _ in range(max_rounds):
-        focus = moved[triangles].any(axis=1)
-        if near is not None:
-            focus &= np.all((centre >= near[0]) & (centre <= near[1]), axis=1)
-        pairs = _crossing_pairs(positions, triangles, centre, reach, focus,
-                                np.flatnonzero(focus) if changed is None else changed, 20_000, is_cancelled)
+        pairs = _crossing_quads(positions, quads, triangles, split, centre, reach, seeds, moved, near,
+                                chunk, is_cancelled)
         if len(pairs) == 0:
             break
-        culprits = np.unique(triangles[pairs.ravel()])
+        culprits = np.unique(pairs)
         culprits = culprits[moved[culprits]]
         if len(culprits) == 0:
             break  # crossings not caused by these moves
@@ -269,17 +297,51 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         span = 4 * np.linalg.norm(np.ptp(positions[quads[0]], axis=0))  # a few faces around
         near = (np.minimum(old[culprits], new[culprits]).min(axis=0) - span,
                 np.maximum(old[culprits], new[culprits]).max(axis=0) + span)
-        # Only the quads around the nodes put back change their split.
         reverted = np.zeros(len(old), dtype=bool)
         reverted[culprits] = True
         touched = np.flatnonzero(reverted[quads].any(axis=1))
-        split = best_split(positions, quads[touched])[0].reshape(-1, 2, 3)
-        triangles[2 * touched] = split[:, 0]
-        triangles[2 * touched + 1] = split[:, 1]
-        changed_quads[touched] = True
-        changed = np.flatnonzero(np.repeat(changed_quads, 2))
-        now = np.concatenate([2 * touched, 2 * touched + 1])
-        corner = positions[triangles[now]]
-        centre[now] = corner.mean(axis=1)
-        reach[now] = _reach(corner, centre[now])
+        corner = positions[quads[touched]]
+        centre[touched] = corner.mean(axis=1)
+        reach[touched] = _reach(corner, centre[touched])
+        split[touched] = False
+        changed[touched] = True
+        seeds = np.flatnonzero(changed)
     return positions, moved, undone
+
+
+def _crossing_quads(positions: np.ndarray, quads: np.ndarray, triangles: np.ndarray, split: np.ndarray,
+                    centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, moved: np.ndarray,
+                    near: tuple[np.ndarray, np.ndarray] | None, chunk: int,
+                    is_cancelled: Callable[[], bool] | None) -> np.ndarray:
+    """One round of :func:`undo_crossings`: the node triples of the crossing
+    triangle pairs (P, 2, 3) with a triangle of a ``seeds`` quad and one in focus.
+
+    ``triangles`` and ``split`` (the quads whose rows of ``triangles`` are
+    their current best split) are completed in place for the quads met.
+    """
+    if len(seeds) == 0:
+        return np.zeros((0, 2, 3), dtype=quads.dtype)
+    # A triangle lies in its quad's ball: quads whose balls do not meet hold
+    # no pair of touching triangles.
+    sub = _near_cells(centre, seeds, 2 * reach.max())
+    todo = sub[~split[sub]]
+    if len(todo):
+        pieces = best_split(positions, quads[todo])[0].reshape(-1, 2, 3)
+        triangles[2 * todo], triangles[2 * todo + 1] = pieces[:, 0], pieces[:, 1]
+        split[todo] = True
+    # Triangle 2 i + k here is triangle k of quad sub[i].
+    tri = triangles[np.column_stack([2 * sub, 2 * sub + 1]).ravel()]
+    p = positions[tri]
+    in_focus = moved[tri].any(axis=1)
+    if near is not None:
+        mid = p.mean(axis=1)
+        in_focus &= np.all((mid >= near[0]) & (mid <= near[1]), axis=1)
+    rows = _pair_rows(p)
+    first, second = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
+    found = [np.zeros((0, 2), dtype=np.int64)]
+    for qa, qb in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, seeds), chunk, is_cancelled):
+        # The four triangle pairs of each quad pair (two quads never share both triangles).
+        a = (2 * qa[:, None] + first).ravel()
+        b = (2 * qb[:, None] + second).ravel()
+        found.append(_crossing_of(a, b, tri, p, rows, in_focus))
+    return tri[np.concatenate(found)]
