@@ -14,6 +14,7 @@ isosceles triangles: q = 0.717.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -126,9 +127,28 @@ def _length(v: np.ndarray) -> np.ndarray:
     return np.sqrt(x * x + y * y + z * z)
 
 
+@dataclass
+class FaceState:
+    """Quality and normal (:func:`quad_quality`, :func:`quad_normals`) of
+    every quad at the current node positions, where ``known``.
+
+    Lets :func:`accept_moves` called pass after pass on the same model read
+    the state a pass left instead of computing it again.
+    """
+
+    quality: np.ndarray
+    normal: np.ndarray
+    known: np.ndarray
+
+    @classmethod
+    def unknown(cls, n_quads: int) -> "FaceState":
+        return cls(np.zeros(n_quads), np.zeros((n_quads, 3)), np.zeros(n_quads, dtype=bool))
+
+
 def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold: float,
                  max_rounds: int = 100,
-                 is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 is_cancelled: Callable[[], bool] | None = None,
+                 state: FaceState | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Keep each node move only while every face around it stays acceptable.
 
     A face is acceptable when its quality is at least ``threshold`` (or no
@@ -145,6 +165,9 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
         Every face the nodes belong to (all regions).
     threshold : float
         Minimum face quality.
+    state : FaceState, optional
+        The faces at ``old`` where known: read instead of computed, and
+        updated in place to the faces at the returned positions.
 
     Returns
     -------
@@ -155,9 +178,19 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
     moving = np.any(new != old, axis=1)
     faces = np.flatnonzero(moving[quads].any(axis=1))
     sub = quads[faces]
-    _, q_old, n_old = _split_quality(old, sub)
+    if state is None:
+        _, q_old, n_old = _split_quality(old, sub)
+    else:
+        missing = faces[~state.known[faces]]
+        if len(missing):
+            _, state.quality[missing], state.normal[missing] = _split_quality(old, quads[missing])
+            state.known[missing] = True
+        q_old, n_old = state.quality[faces], state.normal[faces]
     floor = np.minimum(q_old, threshold)
     positions = new.copy()
+    # The faces at the current positions, for the state: a face is computed
+    # again each time a move of one of its nodes is undone.
+    q_now, n_now = np.zeros(len(sub)), np.zeros((len(sub), 3))
     check = np.arange(len(sub))  # faces whose nodes changed since they were checked
     for _ in range(max_rounds):
         if is_cancelled is not None and is_cancelled():
@@ -165,9 +198,11 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
         if len(check) == 0:
             break
         _, q, normal = _split_quality(positions, sub[check])
+        q_now[check], n_now[check] = q, normal
         turned = np.einsum("ij,ij->i", normal, n_old[check]) <= 0
         bad = check[(q < floor[check] - 1e-12) | turned]
         if len(bad) == 0:
+            check = check[:0]
             break
         undo = np.unique(sub[bad])
         undo = undo[moving[undo]]
@@ -176,4 +211,7 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
         reverted = np.zeros(len(old), dtype=bool)
         reverted[undo] = True
         check = np.flatnonzero(reverted[sub].any(axis=1))
+    if state is not None:
+        state.quality[faces], state.normal[faces] = q_now, n_now
+        state.known[faces[check]] = False  # out of rounds before their check
     return positions, moving
