@@ -175,10 +175,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     dist, near = tree.query(p, k=k, distance_upper_bound=radius, workers=-1)
     near = near.reshape(len(p), k)
     found = near < len(data)
-    offset = data[np.where(found, near, 0)] - p[:, None, :]
-    along = np.einsum("qkc,qc->qk", offset, normal)
-    across = offset - along[..., None] * normal[:, None, :]
-    off_line = np.sqrt(across[..., 0] ** 2 + across[..., 1] ** 2 + across[..., 2] ** 2)
+    off_line = _distance_to_line(data, np.where(found, near, 0), p, normal)
     off_line[~found] = np.inf
     ranked = np.argsort(off_line, axis=1)[:, :_TRIES]
     cos_max = np.cos(np.radians(max_angle))
@@ -214,6 +211,23 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     stats["projected"] = int((wanted & kept).sum())
     stats["refused"] = int((wanted & ~kept).sum())
     return result, stats
+
+
+def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Distance of the data points ``near`` (Q, K) to the line through each
+    node ``p`` along its ``normal`` (Q, 3).
+
+    One (Q, K) array per coordinate: operations on (Q, K, 3) arrays broadcast
+    along an axis of three run ufunc loops three elements long. The
+    arithmetic is that of ``offset = data[near] - p``, ``along =
+    np.einsum("qkc,qc->qk", offset, normal)`` (which, in numpy 1.24, adds the products of x
+    and z first, then y's) and ``np.linalg.norm(offset - along * normal)``.
+    """
+    offset = [data[:, c][near] - p[:, c, None] for c in range(3)]
+    term = [offset[c] * normal[:, c, None] for c in range(3)]
+    along = (term[0] + term[2]) + term[1]
+    across = [offset[c] - along * normal[:, c, None] for c in range(3)]
+    return np.sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2])
 
 
 def nearest_distance(points: np.ndarray, data: np.ndarray) -> np.ndarray:
