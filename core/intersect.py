@@ -33,8 +33,7 @@ _CLASS_QUANTILES = (0.9, 0.99)
 
 
 def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarray,
-                       chunk: int = 20_000, is_cancelled: Callable[[], bool] | None = None,
-                       among: np.ndarray | None = None) -> np.ndarray:
+                       chunk: int = 20_000, is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
     """Pairs ``(a, b)`` of triangles that cross, ``a`` among the ``focus`` ones.
 
     Each crossing pair is reported once, even when both triangles are in
@@ -49,10 +48,6 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     chunk : int
         Triangles searched at a time (bounds the memory of the pair lists).
     is_cancelled : callable, optional
-    among : ndarray of int, optional
-        Only pairs with at least one triangle in ``among`` are looked for: the
-        caller knows that the others do not cross (they were tested before and
-        have not moved since).
 
     Examples
     --------
@@ -65,35 +60,21 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     >>> crossing_triangles(nodes, tris, np.array([0, 2])).tolist()
     [[0, 1]]
     """
-    if len(focus) == 0 or (among is not None and len(among) == 0):
-        return np.zeros((0, 2), dtype=np.int64)
+    none = np.zeros((0, 2), dtype=np.int64)
+    if len(focus) == 0:
+        return none
     corner = nodes[triangles]
     centre = corner.mean(axis=1)
+    reach = _reach(corner, centre)
+    # Only the triangles near a focus one take part.
+    sub = _near_cells(centre, focus, 2 * reach.max())
+    tri, p = triangles[sub], corner[sub]
     in_focus = np.zeros(len(triangles), dtype=bool)
     in_focus[focus] = True
-    return _crossing_pairs(nodes, triangles, centre, _reach(corner, centre), in_focus,
-                           focus if among is None else among, chunk, is_cancelled)
-
-
-def _crossing_pairs(nodes: np.ndarray, triangles: np.ndarray, centre: np.ndarray, reach: np.ndarray,
-                    in_focus: np.ndarray, seeds: np.ndarray, chunk: int,
-                    is_cancelled: Callable[[], bool] | None) -> np.ndarray:
-    """:func:`crossing_triangles` with the centres and reaches of all
-    triangles given (:func:`undo_crossings` updates them from round to round),
-    ``focus`` as a mask, and only pairs with a triangle among ``seeds``."""
-    none = np.zeros((0, 2), dtype=np.int64)
-    if len(seeds) == 0:
-        return none
-    # Everything below works on the triangles near a seed only: with few
-    # seeds (the later rounds of undo_crossings) that is a small part.
-    sub = _near_cells(centre, seeds, 2 * reach.max())
-    tri, reach = triangles[sub], reach[sub]
-    p = nodes[tri]
-    seeds = np.searchsorted(sub, seeds)
     in_focus = in_focus[sub]
     rows = _pair_rows(p)
     found = [none]
-    for a, b in _close_pairs(centre[sub], reach, seeds, chunk, is_cancelled):
+    for a, b in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, focus), chunk, is_cancelled):
         found.append(_crossing_of(a, b, tri, p, rows, in_focus))
     return sub[np.concatenate(found)]
 
