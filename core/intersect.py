@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 from .errors import Cancelled
 from .quality import best_split
 
-#: Quantiles of the triangles' reach that split them into size classes searched apart.
+#: Quantiles of the faces' reach that split them into size classes searched apart.
 _CLASS_QUANTILES = (0.9, 0.99)
 
 
@@ -126,7 +126,7 @@ def _reach(corner: np.ndarray, centre: np.ndarray) -> np.ndarray:
 
 
 def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndarray:
-    """Sorted indices of the triangles whose centre is in a cell of side
+    """Sorted indices of the faces whose centre is in a cell of side
     ``radius`` next to (or in) a seed's cell.
 
     Every centre within ``radius`` of a seed's is among them (so are the
@@ -146,13 +146,14 @@ def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndar
 
 def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk: int,
                  is_cancelled: Callable[[], bool] | None):
-    """Yield arrays ``(a, b)``: every pair of a seed ``a`` and another triangle
-    ``b`` whose centres are closer than their reaches added up (and more).
+    """Yield arrays ``(a, b)``: every pair of a seed ``a`` and another face
+    ``b`` (triangles or quads) whose centres are closer than their reaches
+    added up (and more).
 
     Each pair comes once, also a pair of two seeds (then either may be ``a``).
     One search radius for all would be twice the largest reach, and the few
-    stretched triangles would widen it for every one: triangles are put in
-    size classes, and each pair of classes is searched with its own radius.
+    stretched faces would widen it for every one: faces are put in size
+    classes, and each pair of classes is searched with its own radius.
     """
     is_seed = np.zeros(len(centre), dtype=bool)
     is_seed[seeds] = True
@@ -168,7 +169,7 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk
         if len(s) == 0:
             continue
         # Seeds with seeds of the same or a larger class (each pair of seeds
-        # once), then with every other triangle.
+        # once), then with every other face.
         targets = [(seed_of[m], seed_tree[m], m == k) for m in classes if m >= k]
         targets += [(other_of[m], other_tree[m], False) for m in classes]
         for o, tree, same in targets:
