@@ -118,11 +118,12 @@ def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
     ijk = np.column_stack(np.unravel_index(cells, tuple(shape)))
     out_cells, out_axis, out_sign = [], [], []
     for step in _SIX:
-        other = ijk + step
-        inside = np.all((other >= 0) & (other < shape), axis=1)
-        facing = np.zeros(len(cells), dtype=bool)
-        facing[inside] = flat[other[inside] @ stride] == AIR
+        # One coordinate changes: the neighbour's flat index is one stride away.
         axis = int(np.flatnonzero(step)[0])
+        moved = ijk[:, axis] + step[axis]
+        inside = (moved >= 0) & (moved < shape[axis])
+        facing = np.zeros(len(cells), dtype=bool)
+        facing[inside] = flat[cells[inside] + step[axis] * stride[axis]] == AIR
         out_cells.append(ijk[facing])
         out_axis.append(np.full(int(facing.sum()), axis))
         out_sign.append(np.full(int(facing.sum()), int(step[axis])))
