@@ -118,11 +118,12 @@ def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
     ijk = np.column_stack(np.unravel_index(cells, tuple(shape)))
     out_cells, out_axis, out_sign = [], [], []
     for step in _SIX:
-        other = ijk + step
-        inside = np.all((other >= 0) & (other < shape), axis=1)
-        facing = np.zeros(len(cells), dtype=bool)
-        facing[inside] = flat[other[inside] @ stride] == AIR
+        # One coordinate changes: the neighbour's flat index is one stride away.
         axis = int(np.flatnonzero(step)[0])
+        moved = ijk[:, axis] + step[axis]
+        inside = (moved >= 0) & (moved < shape[axis])
+        facing = np.zeros(len(cells), dtype=bool)
+        facing[inside] = flat[cells[inside] + step[axis] * stride[axis]] == AIR
         out_cells.append(ijk[facing])
         out_axis.append(np.full(int(facing.sum()), axis))
         out_sign.append(np.full(int(facing.sum()), int(step[axis])))
@@ -172,11 +173,18 @@ def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: n
     _, idx = tree.query(centre[open_], k=k, distance_upper_bound=r_outer, workers=-1)
     idx = idx.reshape(len(open_), k)
     valid = idx < len(points)
-    offset = points[np.where(valid, idx, 0)] - centre[open_, None, :]
-    normal = np.take_along_axis(np.abs(offset), axis[open_, None, None], axis=2)[..., 0]
-    excess = np.maximum(np.abs(offset) - 0.5 * h, 0.0)
-    excess[np.arange(len(open_)), :, axis[open_]] = 0.0  # across the face: the normal part counts
-    dist2 = normal**2 + (excess**2).sum(axis=2)
+    idx = np.where(valid, idx, 0)
+    # One (F, k) array per coordinate: no ufunc loops three elements long.
+    # Across the face the normal distance counts, along it only what lies
+    # beyond the face's edge (the sums run x, y, z as before).
+    face_axis = axis[open_, None]
+    dist2 = 0.0
+    for c in range(3):
+        gap = np.abs(points[:, c][idx] - centre[open_, c, None])
+        excess = np.where(face_axis == c, 0.0, np.maximum(gap - 0.5 * h, 0.0))
+        dist2 = dist2 + excess**2
+        normal = gap if c == 0 else np.where(face_axis == c, gap, normal)
+    dist2 = normal**2 + dist2
     supported[open_] = (valid & (dist2 <= r_inner**2)).any(axis=1)
     return supported
 
@@ -189,10 +197,11 @@ def _supported_from_above(tree: cKDTree, points: np.ndarray, centre: np.ndarray,
     _, idx = tree.query(centre[:, :2], k=k, distance_upper_bound=r_outer, workers=-1)
     idx = idx.reshape(len(centre), k)
     valid = idx < len(points)
-    near = points[np.where(valid, idx, 0)]
-    offset = near[..., :2] - centre[:, None, :2]
-    across = np.take_along_axis(np.abs(offset), axis[:, None, None], axis=2)[..., 0]
-    along = np.take_along_axis(np.abs(offset), (1 - axis)[:, None, None], axis=2)[..., 0]
-    along = np.maximum(along - 0.5 * h, 0.0)
-    above = near[..., 2] >= centre[:, None, 2] - 0.5 * h
+    idx = np.where(valid, idx, 0)
+    # One (F, k) array per coordinate (see _supported_3d).
+    dx = np.abs(points[:, 0][idx] - centre[:, 0, None])
+    dy = np.abs(points[:, 1][idx] - centre[:, 1, None])
+    across = np.where(axis[:, None] == 0, dx, dy)
+    along = np.maximum(np.where(axis[:, None] == 0, dy, dx) - 0.5 * h, 0.0)
+    above = points[:, 2][idx] >= centre[:, None, 2] - 0.5 * h
     return (valid & above & (across**2 + along**2 <= (support * h) ** 2)).any(axis=1)

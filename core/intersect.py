@@ -8,8 +8,14 @@ mesher then refuses the model ("a segment and a facet intersect").
 a triangle they do not share a node with, and undoes the moves of their
 nodes until none is left.
 
-Broad phase: a KD-tree over triangle centres, pairs closer than the largest
-triangle diameter. Narrow phase: an edge of one triangle crossing the other
+Broad phase: two faces can only meet if their centres are closer than the
+sum of their reaches (the largest distance from a face's centre to its
+corners); KD-trees over the centres find those pairs, the few large faces in
+classes of their own so that they do not widen the search of all the
+others. :func:`undo_crossings` searches quads (half as many as triangles, and
+a quad's ball, which holds both its triangles, is smaller than a triangle's
+own) and splits only the quads it meets. Then the triangles' bounding boxes
+must overlap. Narrow phase: an edge of one triangle crossing the other
 (Moller-Trumbore on segments), both ways; coplanar touching is not reported.
 """
 from __future__ import annotations
@@ -22,10 +28,26 @@ from scipy.spatial import cKDTree
 from .errors import Cancelled
 from .quality import best_split
 
+#: Quantiles of the faces' reach that split them into size classes searched apart.
+_CLASS_QUANTILES = (0.9, 0.99)
+
 
 def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarray,
                        chunk: int = 20_000, is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
     """Pairs ``(a, b)`` of triangles that cross, ``a`` among the ``focus`` ones.
+
+    Each crossing pair is reported once, even when both triangles are in
+    ``focus``.
+
+    Parameters
+    ----------
+    nodes : ndarray (N, 3)
+    triangles : ndarray of int (T, 3)
+    focus : ndarray of int
+        Triangles to test against all others.
+    chunk : int
+        Triangles searched at a time (bounds the memory of the pair lists).
+    is_cancelled : callable, optional
 
     Examples
     --------
@@ -38,30 +60,146 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     >>> crossing_triangles(nodes, tris, np.array([0, 2])).tolist()
     [[0, 1]]
     """
+    none = np.zeros((0, 2), dtype=np.int64)
     if len(focus) == 0:
-        return np.zeros((0, 2), dtype=np.int64)
-    p = nodes[triangles]
-    centre = p.mean(axis=1)
-    reach = np.linalg.norm(p - centre[:, None, :], axis=2).max()
-    lower, upper = p.min(axis=1), p.max(axis=1)
-    everything = cKDTree(centre)
-    found = []
-    for start in range(0, len(focus), chunk):
-        if is_cancelled is not None and is_cancelled():
-            raise Cancelled()
-        part = focus[start:start + chunk]
-        pairs = cKDTree(centre[part]).sparse_distance_matrix(everything, 2 * reach, output_type="ndarray")
-        a = part[pairs["i"]]
-        b = pairs["j"].astype(np.int64)
-        # Bounding boxes must overlap; triangles sharing a node touch by
-        # construction, and the quality control already covers them.
-        keep = np.all((lower[a] <= upper[b]) & (lower[b] <= upper[a]), axis=1)
-        a, b = a[keep], b[keep]
-        shared = (triangles[a][:, :, None] == triangles[b][:, None, :]).any(axis=(1, 2))
-        a, b = a[~shared], b[~shared]
-        crossing = _edges_cross(p[a], p[b]) | _edges_cross(p[b], p[a])
-        found.append(np.column_stack([a[crossing], b[crossing]]))
-    return np.concatenate(found)
+        return none
+    corner = nodes[triangles]
+    centre = corner.mean(axis=1)
+    reach = _reach(corner, centre)
+    # Only the triangles near a focus one take part.
+    sub = _near_cells(centre, focus, 2 * reach.max())
+    tri, p = triangles[sub], corner[sub]
+    in_focus = np.zeros(len(triangles), dtype=bool)
+    in_focus[focus] = True
+    in_focus = in_focus[sub]
+    rows = _pair_rows(p)
+    found = [none]
+    for a, b in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, focus), chunk, is_cancelled):
+        found.append(_crossing_of(a, b, tri, p, rows, in_focus))
+    return sub[np.concatenate(found)]
+
+
+def _pair_rows(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper corners of the triangles' boxes as per-axis rows (3, T):
+    the pair filters gather one contiguous row at a time."""
+    lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
+    upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
+    return lower, upper
+
+
+def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, p: np.ndarray,
+                 rows: tuple[np.ndarray, np.ndarray], in_focus: np.ndarray) -> np.ndarray:
+    """The candidate pairs ``(a, b)`` that cross, with at least one triangle in
+    focus, that one first.
+
+    ``tri`` (T, 3) are node indices, ``p`` (T, 3, 3) corners, ``rows`` from
+    :func:`_pair_rows`.
+    """
+    lower, upper = rows
+    keep = in_focus[a] | in_focus[b]
+    # Bounding boxes must overlap.
+    for c in range(3):
+        keep &= (lower[c][a] <= upper[c][b]) & (lower[c][b] <= upper[c][a])
+    a, b = a[keep], b[keep]
+    # Triangles sharing a node touch by construction, and the quality
+    # control already covers them.
+    ta, tb = tri[a].T, tri[b].T
+    shared = np.zeros(len(a), dtype=bool)
+    for i in range(3):
+        for j in range(3):
+            shared |= ta[i] == tb[j]
+    a, b = a[~shared], b[~shared]
+    crossing = _edges_cross(p[a], p[b]) | _edges_cross(p[b], p[a])
+    a, b = a[crossing], b[crossing]
+    swap = ~in_focus[a]
+    return np.column_stack([np.where(swap, b, a), np.where(swap, a, b)])
+
+
+def _reach(corner: np.ndarray, centre: np.ndarray) -> np.ndarray:
+    """Largest distance from each triangle's centre to its corners: the
+    triangle lies in the ball of that radius around its centre."""
+    squared = np.zeros(len(centre))
+    for k in range(3):
+        d = corner[:, k] - centre
+        squared = np.maximum(squared, d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2)
+    return np.sqrt(squared)
+
+
+def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndarray:
+    """Sorted indices of the faces whose centre is in a cell of side
+    ``radius`` next to (or in) a seed's cell.
+
+    Every centre within ``radius`` of a seed's is among them (so are the
+    seeds): a cheap filter that keeps the search small when the seeds are few.
+    """
+    radius = max(float(radius), 1e-300)
+    lower = centre.min(axis=0)
+    cell = np.floor((centre - lower) / radius).astype(np.int64) + 1  # +1: room for the -1 neighbours
+    dims = cell.max(axis=0) + 2
+    key = cell[:, 0] + dims[0] * (cell[:, 1] + dims[1] * cell[:, 2])
+    steps = np.array([dx + dims[0] * (dy + dims[1] * dz)
+                      for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
+    seed_cells = np.unique(key[seeds])
+    wanted = np.unique((seed_cells[:, None] + steps[None, :]).ravel())
+    return np.flatnonzero(np.isin(key, wanted))
+
+
+def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk: int,
+                 is_cancelled: Callable[[], bool] | None):
+    """Yield arrays ``(a, b)``: every pair of a seed ``a`` and another face
+    ``b`` (triangles or quads) whose centres are closer than their reaches
+    added up (and more).
+
+    Each pair comes once, also a pair of two seeds (then either may be ``a``).
+    One search radius for all would be twice the largest reach, and the few
+    stretched faces would widen it for every one: faces are put in size
+    classes, and each pair of classes is searched with its own radius.
+    """
+    is_seed = np.zeros(len(centre), dtype=bool)
+    is_seed[seeds] = True
+    bounds = np.quantile(reach, _CLASS_QUANTILES)
+    size_class = np.searchsorted(bounds, reach)
+    classes = range(len(bounds) + 1)
+    seed_of = [np.flatnonzero(is_seed & (size_class == k)) for k in classes]
+    other_of = [np.flatnonzero(~is_seed & (size_class == k)) for k in classes]
+    seed_tree = [_tree(centre[s]) if len(s) else None for s in seed_of]
+    other_tree = [_tree(centre[o]) if len(o) else None for o in other_of]
+    for k in classes:
+        s = seed_of[k]
+        if len(s) == 0:
+            continue
+        # Seeds with seeds of the same or a larger class (each pair of seeds
+        # once), then with every other face.
+        targets = [(seed_of[m], seed_tree[m], m == k) for m in classes if m >= k]
+        targets += [(other_of[m], other_tree[m], False) for m in classes]
+        for o, tree, same in targets:
+            if tree is None:
+                continue
+            if is_cancelled is not None and is_cancelled():
+                raise Cancelled()
+            # Slightly wider than needed: round-off must not lose a touching pair.
+            radius = (reach[s].max() + reach[o].max()) * (1 + 1e-9)
+            if same and len(s) <= 20 * chunk:
+                pairs = tree.query_pairs(radius, output_type="ndarray")
+                for start in range(0, len(pairs), 16 * chunk):
+                    part = pairs[start:start + 16 * chunk]
+                    yield s[part[:, 0]], s[part[:, 1]]
+                continue
+            for start in range(0, len(s), chunk):
+                if is_cancelled is not None and is_cancelled():
+                    raise Cancelled()
+                part = s[start:start + chunk]
+                pairs = _tree(centre[part]).sparse_distance_matrix(tree, radius, output_type="ndarray")
+                a, b = part[pairs["i"]], o[pairs["j"]]
+                if same:  # found from both sides
+                    a, b = a[a < b], b[a < b]
+                yield a, b
+
+
+def _tree(points: np.ndarray) -> cKDTree:
+    """A KD-tree for a one-off pair search: unbalanced and uncompacted trees
+    build faster, and a search finds the same pairs (in another order)."""
+    return cKDTree(points, balanced_tree=False, compact_nodes=False)
 
 
 def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -88,9 +226,15 @@ def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:
 
 
 def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: np.ndarray,
-                   max_rounds: int = 20,
+                   max_rounds: int = 20, chunk: int = 20_000,
                    is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Undo moves until no moved triangle crosses another.
+
+    Each quad is split along its best diagonal (:func:`core.quality.best_split`)
+    at the current positions. A round finds the triangles touching a moved
+    node that cross another (after the first round, only those whose centre
+    is near what the last round undid), and puts back all the moved nodes of
+    both.
 
     Parameters
     ----------
@@ -100,6 +244,8 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         Nodes whose move was kept so far.
     quads : ndarray (M, 4)
         Every face of the model.
+    chunk : int
+        Quads searched at a time (bounds the memory of the pair lists).
 
     Returns
     -------
@@ -110,16 +256,26 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     moved = moved.copy()
     undone = 0
     near = None  # after a round, only the neighbourhood of what was undone can still cross
+    corner = positions[quads]
+    centre = corner.mean(axis=1)
+    reach = _reach(corner, centre)
+    del corner
+    # The best split of the quads met so far; a quad whose nodes are put back
+    # is split again when it is next met.
+    triangles = np.zeros((2 * len(quads), 3), dtype=quads.dtype)
+    split = np.zeros(len(quads), dtype=bool)
+    # First round: the quads around a moved node. Later: the quads changed
+    # since the first round. A pair that crossed then lost every move of its
+    # nodes, so a pair found later has a triangle changed since; the others
+    # were tested then and need no new test.
+    seeds = np.flatnonzero(moved[quads].any(axis=1))
+    changed = np.zeros(len(quads), dtype=bool)
     for _ in range(max_rounds):
-        triangles, _ = best_split(positions, quads)
-        focus = moved[triangles].any(axis=1)
-        if near is not None:
-            centre = positions[triangles].mean(axis=1)
-            focus &= np.all((centre >= near[0]) & (centre <= near[1]), axis=1)
-        pairs = crossing_triangles(positions, triangles, np.flatnonzero(focus), is_cancelled=is_cancelled)
+        pairs = _crossing_quads(positions, quads, triangles, split, centre, reach, seeds, moved, near,
+                                chunk, is_cancelled)
         if len(pairs) == 0:
             break
-        culprits = np.unique(triangles[pairs.ravel()])
+        culprits = np.unique(pairs)
         culprits = culprits[moved[culprits]]
         if len(culprits) == 0:
             break  # crossings not caused by these moves
@@ -129,4 +285,51 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         span = 4 * np.linalg.norm(np.ptp(positions[quads[0]], axis=0))  # a few faces around
         near = (np.minimum(old[culprits], new[culprits]).min(axis=0) - span,
                 np.maximum(old[culprits], new[culprits]).max(axis=0) + span)
+        reverted = np.zeros(len(old), dtype=bool)
+        reverted[culprits] = True
+        touched = np.flatnonzero(reverted[quads].any(axis=1))
+        corner = positions[quads[touched]]
+        centre[touched] = corner.mean(axis=1)
+        reach[touched] = _reach(corner, centre[touched])
+        split[touched] = False
+        changed[touched] = True
+        seeds = np.flatnonzero(changed)
     return positions, moved, undone
+
+
+def _crossing_quads(positions: np.ndarray, quads: np.ndarray, triangles: np.ndarray, split: np.ndarray,
+                    centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, moved: np.ndarray,
+                    near: tuple[np.ndarray, np.ndarray] | None, chunk: int,
+                    is_cancelled: Callable[[], bool] | None) -> np.ndarray:
+    """One round of :func:`undo_crossings`: the node triples of the crossing
+    triangle pairs (P, 2, 3) with a triangle of a ``seeds`` quad and one in focus.
+
+    ``triangles`` and ``split`` (the quads whose rows of ``triangles`` are
+    their current best split) are completed in place for the quads met.
+    """
+    if len(seeds) == 0:
+        return np.zeros((0, 2, 3), dtype=quads.dtype)
+    # A triangle lies in its quad's ball: quads whose balls do not meet hold
+    # no pair of touching triangles.
+    sub = _near_cells(centre, seeds, 2 * reach.max())
+    todo = sub[~split[sub]]
+    if len(todo):
+        pieces = best_split(positions, quads[todo])[0].reshape(-1, 2, 3)
+        triangles[2 * todo], triangles[2 * todo + 1] = pieces[:, 0], pieces[:, 1]
+        split[todo] = True
+    # Triangle 2 i + k here is triangle k of quad sub[i].
+    tri = triangles[np.column_stack([2 * sub, 2 * sub + 1]).ravel()]
+    p = positions[tri]
+    in_focus = moved[tri].any(axis=1)
+    if near is not None:
+        mid = p.mean(axis=1)
+        in_focus &= np.all((mid >= near[0]) & (mid <= near[1]), axis=1)
+    rows = _pair_rows(p)
+    first, second = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
+    found = [np.zeros((0, 2), dtype=np.int64)]
+    for qa, qb in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, seeds), chunk, is_cancelled):
+        # The four triangle pairs of each quad pair (two quads never share both triangles).
+        a = (2 * qa[:, None] + first).ravel()
+        b = (2 * qb[:, None] + second).ravel()
+        found.append(_crossing_of(a, b, tri, p, rows, in_focus))
+    return tri[np.concatenate(found)]

@@ -62,8 +62,18 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     """
     moved = SurfaceModel(nodes=nodes, quads=model.quads, regions=model.regions)
     quads, owner = moved.block_faces()
-    quality = best_split(nodes, quads)[1]
-    triangles, tri_owner = moved.triangulated().block_faces()
+    # The triangles of the block faces as SurfaceModel.triangulated splits
+    # them (on the model's orientation), without splitting the other faces;
+    # the quality of each face as the block sees it (a face the model orients
+    # into the block is judged reversed).
+    a, b = model.regions[:, 0], model.regions[:, 1]
+    block = np.flatnonzero((a > 0) | (b > 0))
+    split, split_quality = best_split(nodes, model.quads[block])
+    split = split.reshape(-1, 2, 3)
+    outward = a[block] > 0
+    triangles = np.concatenate([split[outward].reshape(-1, 3), split[~outward].reshape(-1, 3)[:, ::-1]])
+    tri_owner = np.repeat(owner, 2)
+    quality = np.concatenate([split_quality[outward], best_split(nodes, quads[outward.sum():])[1]])
     p = nodes[triangles]
     cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     tri_area = 0.5 * np.linalg.norm(cross, axis=1)

@@ -59,13 +59,29 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     return np.divide(summed, length, out=np.zeros(summed.shape), where=length > 0)  # float when no quad
 
 
-def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles) -> np.ndarray:
-    """Normals pointing out of the region that owns each node (block, else ground)."""
+def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
+                    select: np.ndarray | None = None) -> np.ndarray:
+    """Normals pointing out of the region that owns each node (block, else ground).
+
+    Parameters
+    ----------
+    select : ndarray of bool (N,), optional
+        Nodes whose normal is wanted; the others get a zero vector, and the
+        faces touching none of them are not looked at. Default: all nodes.
+    """
     n = len(nodes)
+    if select is None:
+        select = np.ones(n, dtype=bool)
     block_quads, _ = model.block_faces()
     ground_quads = model.closed_surface(GROUND_REGION)
-    return np.where(roles.on_block[:, None], node_normals(nodes, block_quads, n),
-                    node_normals(nodes, ground_quads, n))
+    normal = np.zeros((n, 3))
+    for quads, wanted in ((block_quads, select & roles.on_block), (ground_quads, select & ~roles.on_block)):
+        if wanted.any():
+            # The faces around the wanted nodes, in their order: each node's
+            # sum runs over the same faces in the same order as with all faces.
+            quads = quads[wanted[quads].any(axis=1)]
+            normal[wanted] = node_normals(nodes, quads, n)[wanted]
+    return normal
 
 
 def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
@@ -107,6 +123,15 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     flat : ndarray of bool (Q,)
         The neighbourhood spans a plane (not a line or a point).
     """
+    centre, vectors, flat = _principal_axes(data, tree, at, sigma, k)
+    return centre, vectors[:, :, 0], flat
+
+
+def _principal_axes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
+                    k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`mls_planes` with all three axes (Q, 3, 3), smallest first: the
+    normal is ``[:, :, 0]``, a strided view, as the callers' dot products
+    expect (``einsum`` rounds differently on a contiguous copy)."""
     dist, idx = nearest(tree, data, at, k)
     x = data[idx]
     w = np.exp(-(dist / sigma) ** 2)
@@ -116,7 +141,7 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     cov = np.einsum("qk,qki,qkj->qij", w, d, d)
     values, vectors = np.linalg.eigh(cov)
     flat = values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
-    return centre, vectors[:, :, 0], flat
+    return centre, vectors, flat
 
 
 def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, select: np.ndarray,
@@ -160,7 +185,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
         return nodes, stats
     if is_cancelled is not None and is_cancelled():
         raise Cancelled()
-    normal = outward_normals(model, nodes, roles)[idx_nodes]
+    normal = outward_normals(model, nodes, roles, select)[idx_nodes]
     # Constrained coordinates are not moved: drop them from the direction.
     normal[roles.fixed_axes[idx_nodes]] = 0.0
     length = np.linalg.norm(normal, axis=1, keepdims=True)
@@ -172,9 +197,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     dist, near = nearest(tree, data, p, _NEAR, radius)
     found = near < len(data)
     candidate = data[np.where(found, near, 0)]
-    offset = candidate - p[:, None, :]
-    along = np.einsum("qkc,qc->qk", offset, normal)
-    off_line = np.linalg.norm(offset - along[..., None] * normal[:, None, :], axis=2)
+    off_line = _distance_to_line(data, np.where(found, near, 0), p, normal)
     off_line[~found] = np.inf
     # Ties (data on a lattice) broken by the points' coordinates, not by the
     # KD-tree's visiting order: a tile then picks the points a whole run picks.
@@ -189,8 +212,10 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
         todo = np.flatnonzero(~done & np.isfinite(off_line[np.arange(len(p)), ranked[:, attempt]]))
         if len(todo) == 0:
             break
-        chosen = data[near[todo, ranked[todo, attempt]]]
-        centre, plane_normal, flat = mls_planes(data, tree, chosen, sigma=0.5 * voxel_size)
+        # Neighbouring nodes often pick the same data point: one plane per point.
+        chosen, which = np.unique(near[todo, ranked[todo, attempt]], return_inverse=True)
+        centre, axes, flat = _principal_axes(data, tree, data[chosen], 0.5 * voxel_size, _PLANE_POINTS)
+        centre, flat, plane_normal = centre[which], flat[which], axes[which][:, :, 0]
         cos = np.einsum("qc,qc->q", plane_normal, normal[todo])
         compatible = flat & (np.abs(cos) >= cos_max)
         t = np.einsum("qc,qc->q", centre - p[todo], plane_normal) / np.where(compatible, cos, 1.0)
@@ -211,6 +236,23 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     stats["projected"] = int((wanted & kept).sum())
     stats["refused"] = int((wanted & ~kept).sum())
     return result, stats
+
+
+def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """Distance of the data points ``near`` (Q, K) to the line through each
+    node ``p`` along its ``normal`` (Q, 3).
+
+    One (Q, K) array per coordinate: operations on (Q, K, 3) arrays broadcast
+    along an axis of three run ufunc loops three elements long. The
+    arithmetic is that of ``offset = data[near] - p``, ``along =
+    np.einsum("qkc,qc->qk", offset, normal)`` (which, in numpy 1.24, adds the products of x
+    and z first, then y's) and ``np.linalg.norm(offset - along * normal)``.
+    """
+    offset = [data[:, c][near] - p[:, c, None] for c in range(3)]
+    term = [offset[c] * normal[:, c, None] for c in range(3)]
+    along = (term[0] + term[2]) + term[1]
+    across = [offset[c] - along * normal[:, c, None] for c in range(3)]
+    return np.sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2])
 
 
 def nearest_distance(points: np.ndarray, data: np.ndarray) -> np.ndarray:

@@ -14,6 +14,7 @@ isosceles triangles: q = 0.717.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -68,21 +69,7 @@ def best_split(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
     >>> tri.tolist()
     [[1, 2, 3], [1, 3, 0]]
     """
-    p = nodes[quads]
-    normal = quad_normals(nodes, quads)
-    splits = (((0, 1, 2), (0, 2, 3)), ((1, 2, 3), (1, 3, 0)))
-    scores = []
-    for first, second in splits:
-        worst = None
-        for tri in (first, second):
-            a, b, c = p[:, tri[0]], p[:, tri[1]], p[:, tri[2]]
-            q = triangle_quality(a, b, c)
-            facing = np.einsum("ij,ij->i", np.cross(b - a, c - a), normal) > 0
-            q = np.where(facing, q, 0.0)
-            worst = q if worst is None else np.minimum(worst, q)
-        scores.append(worst)
-    use_second = scores[1] > scores[0]
-    quality = np.where(use_second, scores[1], scores[0])
+    use_second, quality, _ = _split_quality(nodes, quads)
     order = np.where(use_second[:, None], np.array([1, 2, 3, 1, 3, 0]), np.array([0, 1, 2, 0, 2, 3]))
     triangles = np.take_along_axis(quads, order, axis=1).reshape(-1, 3)
     return triangles, quality
@@ -90,12 +77,89 @@ def best_split(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
 
 def quad_quality(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
     """Quality of every quad under its best split."""
-    return best_split(nodes, quads)[1]
+    return _split_quality(nodes, quads)[1]
+
+
+def _split_quality(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which split of each quad is better, its quality, and the quad's normal.
+
+    The four triangles of the two splits share their six edges (four sides,
+    two diagonals): each length and difference is computed once, with the
+    three coordinates apart so that every operation runs on contiguous rows
+    of M numbers. The arithmetic of every quantity is that of
+    :func:`triangle_quality`, :func:`quad_normals` and the ``einsum`` dot
+    product of the orientation test (which, in numpy 1.24, adds the x and z
+    products first), so the results are the same to the last bit.
+
+    Returns
+    -------
+    use_second : ndarray of bool (M,)
+        Split along the diagonal 1-3 (triangles 1 2 3 and 1 3 0), else 0-2.
+    quality : ndarray (M,)
+    normal : ndarray (M, 3)
+        As :func:`quad_normals`.
+    """
+    corner = quads.T
+    x = [np.ascontiguousarray(nodes[:, c])[corner] for c in range(3)]  # (4, M) each
+
+    def edge(i: int, j: int) -> list[np.ndarray]:
+        return [x[c][j] - x[c][i] for c in range(3)]
+
+    d01, d12, d23, d30, d02, d13 = edge(0, 1), edge(1, 2), edge(2, 3), edge(3, 0), edge(0, 2), edge(1, 3)
+    l01, l12, l23, l30, l02, l13 = (_length(d) for d in (d01, d12, d23, d30, d02, d13))
+    normal = [0.5 * c for c in _cross(d02, d13)]
+    scale = 4 * np.sqrt(3)
+
+    def quality(ab, bc, ca, u, v):
+        # triangle_quality with sides ab, bc, ca and cross(b - a, c - a) = cross(u, v),
+        # zero when the triangle faces away from the quad.
+        cross = _cross(u, v)
+        area = 0.5 * _length(cross)
+        longest = np.maximum(np.maximum(ab, bc), ca)
+        denominator = (ab + bc + ca) * longest
+        q = np.divide(scale * area, denominator, out=np.zeros_like(area), where=denominator > 0)
+        facing = (cross[0] * normal[0] + cross[2] * normal[2]) + cross[1] * normal[1] > 0
+        return np.where(facing, q, 0.0)
+
+    # |a - c| = |c - a| exactly, and p3 - p0 = -(p0 - p3) exactly.
+    first = np.minimum(quality(l01, l12, l02, d01, d02), quality(l02, l23, l30, d02, [-c for c in d30]))
+    second = np.minimum(quality(l12, l23, l13, d12, d13), quality(l13, l30, l01, d13, [-c for c in d01]))
+    use_second = second > first
+    return use_second, np.where(use_second, second, first), np.stack(normal, axis=1)
+
+
+def _cross(u: list[np.ndarray], v: list[np.ndarray]) -> list[np.ndarray]:
+    """Cross product of vectors given as three coordinate arrays (the arithmetic of ``np.cross``)."""
+    return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+
+
+def _length(v: list[np.ndarray]) -> np.ndarray:
+    """Length of vectors given as three coordinate arrays (the arithmetic of ``np.linalg.norm``)."""
+    return np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+
+@dataclass
+class FaceState:
+    """Quality and normal (:func:`quad_quality`, :func:`quad_normals`) of
+    every quad at the current node positions, where ``known``.
+
+    Lets :func:`accept_moves` called pass after pass on the same model read
+    the state a pass left instead of computing it again.
+    """
+
+    quality: np.ndarray
+    normal: np.ndarray
+    known: np.ndarray
+
+    @classmethod
+    def unknown(cls, n_quads: int) -> "FaceState":
+        return cls(np.zeros(n_quads), np.zeros((n_quads, 3)), np.zeros(n_quads, dtype=bool))
 
 
 def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold: float,
                  max_rounds: int = 100,
-                 is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 is_cancelled: Callable[[], bool] | None = None,
+                 state: FaceState | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Keep each node move only while every face around it stays acceptable.
 
     A face is acceptable when its quality is at least ``threshold`` (or no
@@ -112,6 +176,9 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
         Every face the nodes belong to (all regions).
     threshold : float
         Minimum face quality.
+    state : FaceState, optional
+        The faces at ``old`` where known: read instead of computed, and
+        updated in place to the faces at the returned positions.
 
     Returns
     -------
@@ -122,19 +189,31 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
     moving = np.any(new != old, axis=1)
     faces = np.flatnonzero(moving[quads].any(axis=1))
     sub = quads[faces]
-    floor = np.minimum(quad_quality(old, sub), threshold)
-    n_old = quad_normals(old, sub)
+    if state is None:
+        _, q_old, n_old = _split_quality(old, sub)
+    else:
+        missing = faces[~state.known[faces]]
+        if len(missing):
+            _, state.quality[missing], state.normal[missing] = _split_quality(old, quads[missing])
+            state.known[missing] = True
+        q_old, n_old = state.quality[faces], state.normal[faces]
+    floor = np.minimum(q_old, threshold)
     positions = new.copy()
+    # The faces at the current positions, for the state: a face is computed
+    # again each time a move of one of its nodes is undone.
+    q_now, n_now = np.zeros(len(sub)), np.zeros((len(sub), 3))
     check = np.arange(len(sub))  # faces whose nodes changed since they were checked
     for _ in range(max_rounds):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         if len(check) == 0:
             break
-        q = quad_quality(positions, sub[check])
-        turned = np.einsum("ij,ij->i", quad_normals(positions, sub[check]), n_old[check]) <= 0
+        _, q, normal = _split_quality(positions, sub[check])
+        q_now[check], n_now[check] = q, normal
+        turned = np.einsum("ij,ij->i", normal, n_old[check]) <= 0
         bad = check[(q < floor[check] - 1e-12) | turned]
         if len(bad) == 0:
+            check = check[:0]
             break
         undo = np.unique(sub[bad])
         undo = undo[moving[undo]]
@@ -143,4 +222,7 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
         reverted = np.zeros(len(old), dtype=bool)
         reverted[undo] = True
         check = np.flatnonzero(reverted[sub].any(axis=1))
+    if state is not None:
+        state.quality[faces], state.normal[faces] = q_now, n_now
+        state.known[faces[check]] = False  # out of rounds before their check
     return positions, moving

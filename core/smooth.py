@@ -28,7 +28,7 @@ import numpy as np
 from scipy import sparse
 
 from .errors import Cancelled
-from .quality import accept_moves
+from .quality import FaceState, accept_moves
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel
 
 
@@ -156,12 +156,14 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     keep = roles.fixed_axes | ~roles.movable[:, None]
     nodes = model.nodes.copy()
     stats = {"moved": [], "refused": []}
+    faces = FaceState.unknown(len(model.quads))  # what a pass leaves, the next one starts from
     for _ in range(passes):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         proposal = np.where(keep, nodes, W @ nodes)
         wanted = np.any(proposal != nodes, axis=1)
-        nodes, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled)
+        nodes, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled,
+                                   state=faces)
         stats["moved"].append(int(kept.sum()))
         stats["refused"].append(int((wanted & ~kept).sum()))
     return nodes, stats
