@@ -24,7 +24,8 @@ module                 step                                                  pap
 ``export.py``          mesh files (.msh .vtu .obj .stl .ply)
 ``pipeline.py``        the steps in order, with progress and cancel
 ``clusters.py``        scattered data: one grid per cluster, merged
-``tiles.py``           tiles with a halo, here or on Dask, merged as one run
+``tiles.py``           tiles with a halo, owned blocks, merged as one run
+``workers.py``         where tiles run: this process or Dask workers
 ``cli.py``             ``python -m core``: the method from the command line
 =====================  ====================================================  ========
 """

@@ -29,14 +29,11 @@ are the single run's wherever the halo covers what a node depends on.
 
 Tiles run in this process, on a local Dask cluster (``workers=N``) or on
 any Dask scheduler (``scheduler="tcp://host:8786"``, with urbanvox
-importable on its workers). :func:`reconstruct_tile` is a plain function of
-picklable inputs.
+importable on its workers), see :mod:`core.workers`.
+:func:`reconstruct_tile` is a plain function of picklable inputs.
 """
 from __future__ import annotations
 
-import os
-import shutil
-import sys
 import time
 from dataclasses import dataclass, field, replace
 from typing import Callable
@@ -44,12 +41,13 @@ from typing import Callable
 import numpy as np
 
 from .blocks import BlockTable
-from .errors import Cancelled, UrbanvoxError
+from .errors import UrbanvoxError
 from .grid import GridWindow, available_memory
 from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
 from .measure import BlockMeasures
 from .surface import SurfaceModel
+from .workers import TileRunner
 
 Columns = tuple[int, int, int, int]  # i0, j0, i1, j1 (half-open), global columns
 
@@ -341,7 +339,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     windows = initial_windows(cores, tile, halo, domain, _building_columns(building, level, domain, h))
     done: list[TilePiece] = []
     regrown = 0
-    with _Runner(options, job) as runner:
+    with TileRunner(options, job, reconstruct_tile) as runner:
         for n, window in enumerate(windows):
             runner.submit(n, window)
         for piece in runner.run(is_cancelled, progress, len(cores)):
@@ -477,109 +475,3 @@ class _Cropper:
             inside = (j[a:b] >= j0) & (j[a:b] < j1)
             out.append(points[a:b][inside])
         return out[0], out[1]
-
-
-class _Runner:
-    """Runs tiles in this process or on Dask, yielding pieces as they finish.
-
-    Work is a queue of ``(tile index, window)``; a tile's job (its points
-    cropped to the window) is made only when it is sent, and at most two
-    per worker are in flight, so the copies of the points stay few.
-    """
-
-    def __init__(self, options: TileOptions, make_job: Callable[[int, Columns], TileJob]):
-        self.options = options
-        self.make_job = make_job
-        self.client = None
-        self.cluster = None
-        self.queue: list[tuple[int, Columns]] = []
-        self.futures: list = []
-        self.in_flight = 1
-
-    def __enter__(self) -> "_Runner":
-        o = self.options
-        if o.scheduler or (o.workers or 0) > 1:
-            try:
-                from dask.distributed import Client, LocalCluster
-            except ImportError as exc:
-                raise UrbanvoxError(
-                    "Tiles on several workers need Dask: "
-                    f"{_python()} -m pip install 'dask[distributed]' (or set the workers to 0).") from exc
-            if o.scheduler:
-                self.client = Client(o.scheduler)
-            else:
-                _use_python_for_workers()
-                self.cluster = LocalCluster(n_workers=int(o.workers), threads_per_worker=1,
-                                            processes=True, dashboard_address=None)
-                self.client = Client(self.cluster)
-            self.in_flight = 2 * max(1, len(self.client.scheduler_info().get("workers", {})) or int(o.workers or 1))
-        return self
-
-    def __exit__(self, *exc) -> None:
-        for future in self.futures:
-            future.cancel()
-        if self.client is not None:
-            self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
-
-    def submit(self, index: int, window: Columns) -> None:
-        self.queue.append((index, window))
-
-    def _send(self) -> None:
-        while self.queue and len(self.futures) < self.in_flight:
-            job = self.make_job(*self.queue.pop(0))
-            self.futures.append(self.client.submit(reconstruct_tile, job, pure=False))
-
-    def run(self, is_cancelled, progress, total: int):
-        finished = 0
-        while self.queue or self.futures:
-            if is_cancelled is not None and is_cancelled():
-                raise Cancelled()
-            if self.client is None:
-                job = self.make_job(*self.queue.pop(0))
-
-                def tile_progress(fraction: float, message: str, done: int = finished) -> None:
-                    if progress is not None:
-                        progress((done + fraction) / total, f"Tile {done + 1}/{total}: {message}")
-
-                piece = reconstruct_tile(job, tile_progress, is_cancelled)
-                del job
-            else:
-                from dask.distributed import wait
-
-                self._send()
-                try:  # short waits, so that a cancel is seen
-                    ready = wait(self.futures, timeout=0.5, return_when="FIRST_COMPLETED").done
-                except TimeoutError:
-                    continue
-                future = next(iter(ready))
-                self.futures.remove(future)
-                piece = future.result()
-            if piece.grow is None:
-                finished += 1
-                if progress is not None:
-                    progress(finished / total, f"Tile {finished}/{total} done")
-            yield piece
-
-
-def _python() -> str:
-    """The Python interpreter to run workers with: this Python's own.
-
-    Inside QGIS ``sys.executable`` is not the interpreter QGIS embeds (it is
-    QGIS, or whatever ``python3`` comes first on PATH), so the interpreter of
-    ``sys.exec_prefix`` and this version is preferred.
-    """
-    version = f"python{sys.version_info[0]}.{sys.version_info[1]}"
-    for candidate in (os.path.join(sys.exec_prefix, "bin", version),
-                      os.path.join(sys.base_exec_prefix, "bin", version)):
-        if os.access(candidate, os.X_OK):
-            return candidate
-    return sys.executable or shutil.which("python3") or "python3"
-
-
-def _use_python_for_workers() -> None:
-    """Spawn Dask's worker processes with this Python (see :func:`_python`)."""
-    import multiprocessing
-
-    multiprocessing.set_executable(_python())
