@@ -91,7 +91,7 @@ def unique_cells(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
 
 
 def binning(grids: list[tuple[VoxelGrid, np.ndarray, np.ndarray]], repeat: int = 3) -> dict:
-    """Building-point binning by np.unique (the pipeline's), by scatter, and by Open3D."""
+    """Building-point binning by np.unique (the reference), by scatter (the pipeline's), and by Open3D."""
     n = sum(len(b) for _, _, b in grids)
     out: dict = {"points": int(n), "unique_s": 0.0, "fast_s": 0.0, "fast_shuffled_s": 0.0,
                  "cells": 0, "equal": True}

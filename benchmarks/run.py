@@ -309,9 +309,9 @@ def print_case(name: str, voxel: float, r: dict) -> None:
         return
     bn = b["binning"]
     print(f"  {'voxelise':<16} {bn['unique_s']:8.2f} {_fmt_rate(bn['points'], bn['unique_s']):>9} pts      "
-          f"(np.unique, the pipeline's, inside ground)")
+          f"(np.unique reference: a sort)")
     print(f"  {'voxelise fast':<16} {bn['fast_s']:8.3f} {_fmt_rate(bn['points'], bn['fast_s']):>9} pts      "
-          f"(VoxelGrid.occupied_cells, file order; shuffled {_fmt_rate(bn['points'], bn['fast_shuffled_s']).strip()} pts/s; "
+          f"(VoxelGrid.occupied_cells, the pipeline's, inside ground; file order; shuffled {_fmt_rate(bn['points'], bn['fast_shuffled_s']).strip()} pts/s; "
           f"same cells: {bn['equal']})")
     o3d_s = bn["open3d_s"]
     o3d_txt = o3d_s if isinstance(o3d_s, str) else (f"{o3d_s:.3f} s ({_fmt_rate(bn['points'], o3d_s).strip()} pts/s, "
