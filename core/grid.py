@@ -300,10 +300,12 @@ def available_memory() -> int:
 
 
 #: Bytes per surface face (quad) that smoothing, projection and the measures
-#: hold at once: node and face arrays, the triangles of the best splits, the
-#: KD-trees and neighbour lists of the projection. Measured on the synthetic
-#: city (benchmarks/run.py: peak RSS of the projection stage over faces).
-BYTES_PER_FACE = 1600
+#: add once the surfaces exist: node and face arrays, the triangles of the
+#: best splits, the KD-trees and neighbour lists of the projection. Measured
+#: on the 1 km synthetic city at 1 m (benchmarks/run.py): peak RSS 3.6 GB
+#: after the surfaces, 6.8 GB after the projection, for 4.85 M faces (660 B
+#: per face), with a margin.
+BYTES_PER_FACE = 1000
 
 
 def check_face_memory(n_faces: int, n_columns: int, voxel_size: float, available: int | None = None,
@@ -317,12 +319,12 @@ def check_face_memory(n_faces: int, n_columns: int, voxel_size: float, available
     Examples
     --------
     >>> check_face_memory(10**6, 10**6, 1.0, available=8 * 2**30)
-    1600000000
+    1000000000
     >>> try:
     ...     check_face_memory(10**8, 4 * 10**6, 1.0, available=8 * 2**30)
     ... except UrbanvoxError as error:
     ...     print(error)
-    The surfaces (100000000 faces) need about 149.0 GiB for smoothing and projection but only 8.0 GiB is available. Use a voxel size of at least 4.6, or tiles of at most 324 (TILE_SIZE).
+    The surfaces (100000000 faces) need about 93.1 GiB for smoothing and projection but only 8.0 GiB is available. Use a voxel size of at least 3.6, or tiles of at most 410 (TILE_SIZE).
     """
     needed = int(n_faces) * bytes_per_face
     if available is None:
