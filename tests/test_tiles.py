@@ -155,3 +155,15 @@ def test_memory_guard_counts_the_surfaces_too(district):
     params = ReconstructionParams(voxel_size=1.0, extent=district.district.extent, max_memory=100 * 2**20)
     with pytest.raises(UrbanvoxError, match=r"surfaces \(\d+ faces\) need about .* tiles of at most \d+"):
         reconstruct_point_cloud(district.laz, params=params)
+
+
+def test_mesh_input_tiled_equals_single(district):
+    from core.pipeline import reconstruct_mesh
+
+    params = ReconstructionParams(voxel_size=2.0, extent=district.district.extent)
+    args = dict(crs=district.crs, ground_path=district.ground_stl, params=params)
+    single = reconstruct_mesh(district.stl, **args)
+    tiled = reconstruct_mesh(district.stl, tiles=TileOptions(tile_size=60.0), **args)
+    assert tiled.stats["tiles"] == 25
+    assert_same_blocks(single, tiled, rtol=1e-9)
+    assert same_nodes(single, tiled) < 1e-9
