@@ -192,7 +192,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
 
     h = result.grid.voxel_size
     surface, mesh = result.surface, result.mesh
-    keys = np.rint(surface.nodes / h).astype(np.int64)  # local coordinates are the domain's
+    keys = np.rint(surface.nodes / h).astype(np.int32)  # local coordinates are the domain's
     # Owned blocks, numbered in anchor order (scipy.ndimage.label's order in a
     # single run: the first voxel in (i, j, k) raster order).
     own_ids = table.block_id[owned]
@@ -222,7 +222,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
     columns = columns[np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0]))]
     return TilePiece(
         job.index, keys=keys[used], moved=mesh.nodes[used], priority=priority[used],
-        quads=inverse.reshape(quads.shape).astype(np.int64), regions=new_regions.astype(np.int32),
+        quads=inverse.reshape(quads.shape).astype(np.int32), regions=new_regions.astype(np.int32),
         anchors=np.column_stack([anchor_i[rows], anchor_j[rows]]), blocks=blocks, measures=measures,
         footprint_columns=columns, warnings=list(result.warnings), timings=dict(result.timings))
 
@@ -260,7 +260,7 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
         r = p.regions.copy()
         r[r > 0] = renumber[r[r > 0]]
         regions.append(r)
-        quads.append(p.quads + n_nodes)
+        quads.append(p.quads.astype(np.int64) + n_nodes)
         keys.append(p.keys)
         moved.append(p.moved)
         # Nodes of owned blocks first, then by tile: a block's nodes come from its tile.
@@ -273,17 +273,21 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     keys = np.concatenate(keys)
     rank = np.concatenate(first_rank)
     nx1, ny1 = domain.shape[0] + 1, domain.shape[1] + 1
-    flat = keys[:, 0] + nx1 * (keys[:, 1] + ny1 * keys[:, 2])
+    flat = keys[:, 0].astype(np.int64) + nx1 * (keys[:, 1] + ny1 * keys[:, 2].astype(np.int64))
     by_rank = np.lexsort((rank, flat))
-    unique_flat, start, inverse_sorted = np.unique(flat[by_rank], return_index=True, return_inverse=True)
-    chosen = by_rank[start]
-    node_of = np.empty(len(flat), dtype=np.int64)
-    node_of[by_rank] = inverse_sorted.ravel()
-    nodes = keys[chosen] * h
+    flat = flat[by_rank]
+    first = np.concatenate([[True], flat[1:] != flat[:-1]])  # a node's best-ranked copy
+    del flat
+    chosen = by_rank[first]
+    node_of = np.empty(len(by_rank), dtype=np.int64)
+    node_of[by_rank] = np.cumsum(first) - 1
+    del by_rank, first
+    nodes = keys[chosen].astype(np.float64) * h
     final = np.concatenate(moved)[chosen]
     all_quads = node_of[np.concatenate(quads)]
+    del node_of
     all_regions = np.concatenate(regions)
-    surface = SurfaceModel(nodes.astype(np.float64), all_quads, all_regions)
+    surface = SurfaceModel(nodes, all_quads, all_regions)
     mesh = SurfaceModel(final, all_quads, all_regions)
 
     tables = [p.blocks for p in pieces]
@@ -457,21 +461,34 @@ def initial_windows(cores: list[Columns], tile: int, halo: int, domain: GridWind
 
 
 class _Cropper:
-    """The points of a window of columns, found through one sort by column."""
+    """The points of a window of columns, found through one sort by column.
+
+    Keeps the sort order and the column of every point (4 + 8 bytes a point
+    with int32), not a sorted copy of the points (24 bytes): on a city of
+    50 M points that is 0.6 GB instead of 2 GB.
+    """
 
     def __init__(self, ground: np.ndarray, building: np.ndarray, domain: GridWindow, h: float):
         self.sets = []
+        index = np.int32 if max(len(ground), len(building)) < 2**31 else np.int64
         for points in (ground, building):
-            ij = np.floor((points[:, :2] - domain.lower[:2]) / h).astype(np.int64)
-            np.clip(ij, 0, np.asarray(domain.shape[:2]) - 1, out=ij)
-            order = np.argsort(ij[:, 0], kind="stable")
-            self.sets.append((points[order], ij[order, 0], ij[order, 1]))
+            i = _column(points[:, 0], domain.lower[0], h, domain.shape[0])
+            order = np.argsort(i, kind="stable").astype(index)
+            j = _column(points[:, 1], domain.lower[1], h, domain.shape[1])[order]
+            self.sets.append((points, order, i[order], j))
 
     def __call__(self, window: Columns) -> tuple[np.ndarray, np.ndarray]:
         i0, j0, i1, j1 = window
         out = []
-        for points, i, j in self.sets:
+        for points, order, i, j in self.sets:
             a, b = np.searchsorted(i, [i0, i1])
             inside = (j[a:b] >= j0) & (j[a:b] < j1)
-            out.append(points[a:b][inside])
+            out.append(points[order[a:b][inside]])
         return out[0], out[1]
+
+
+def _column(x: np.ndarray, lower: float, h: float, n: int) -> np.ndarray:
+    """Column index (int32) of coordinates ``x`` on a lattice of ``n`` columns."""
+    column = np.floor((x - lower) / h)
+    np.clip(column, 0, n - 1, out=column)
+    return column.astype(np.int32)
