@@ -46,7 +46,7 @@ from .measure import BlockMeasures, measure_blocks
 from .project import nearest_distance, project_nodes
 from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
-from .tiles import TileOptions
+from .tiles import TileOptions, reconstruct_tiled
 
 Progress = Callable[[float, str], None]
 CancelCheck = Callable[[], bool]
@@ -389,8 +389,6 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     if window is None:
         window = GridWindow.around(ground, building, h, params.extent)
         if tiles is not None and tiles.cuts(window, params.voxel_size):
-            from .tiles import reconstruct_tiled
-
             return reconstruct_tiled(ground, building, crs, params, airborne, window, tiles,
                                      warnings, progress, is_cancelled)
 

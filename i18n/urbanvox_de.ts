@@ -152,8 +152,8 @@
       <translation>Teilt das Gebiet in quadratische Kacheln dieser Seitenlänge (m), jede auf einem eigenen Gitter mit einem Rand rekonstruiert und danach zusammengeführt: für Gebiete, deren Gitter nicht in den Speicher passt, oder um mehrere Prozesse zu nutzen. Ein Block über mehrere Kacheln wird von einer Kachel ganz gebaut; das Ergebnis ist dasselbe wie mit einem Gitter. 0: ein Gitter.</translation>
     </message>
     <message>
-      <source>With tiles: the number of worker processes (a local Dask cluster). 0 or 1: the tiles run one after the other in QGIS's process. Needs the Python package dask[distributed].</source>
-      <translation>Mit Kacheln: die Zahl der Worker-Prozesse (ein lokaler Dask-Cluster). 0 oder 1: die Kacheln laufen nacheinander im QGIS-Prozess. Benötigt das Python-Paket dask[distributed].</translation>
+      <source>The number of worker processes for the tiles (a local Dask cluster); without a tile size, tiles of 250 m. 0 or 1: the tiles run one after the other in QGIS's process. Needs the Python package dask[distributed].</source>
+      <translation>Die Zahl der Worker-Prozesse für die Kacheln (ein lokaler Dask-Cluster); ohne Kachelgröße Kacheln von 250 m. 0 oder 1: die Kacheln laufen nacheinander im QGIS-Prozess. Benötigt das Python-Paket dask[distributed].</translation>
     </message>
     <message>
       <source>With tiles: the address of a running Dask scheduler (tcp://host:8786) whose workers have urbanvox's core importable; overrides the worker count.</source>

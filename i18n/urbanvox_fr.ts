@@ -152,8 +152,8 @@
       <translation>Découpe le domaine en tuiles carrées de ce côté (m), chacune reconstruite sur sa propre grille avec une marge autour, puis fusionnées : pour les zones dont la grille ne tient pas en mémoire, ou pour utiliser plusieurs processus. Un îlot à cheval sur plusieurs tuiles est construit en entier par une seule ; le résultat est celui d'une seule grille. 0 : une seule grille.</translation>
     </message>
     <message>
-      <source>With tiles: the number of worker processes (a local Dask cluster). 0 or 1: the tiles run one after the other in QGIS's process. Needs the Python package dask[distributed].</source>
-      <translation>Avec des tuiles : le nombre de processus de calcul (un cluster Dask local). 0 ou 1 : les tuiles sont calculées l'une après l'autre dans le processus de QGIS. Nécessite le paquet Python dask[distributed].</translation>
+      <source>The number of worker processes for the tiles (a local Dask cluster); without a tile size, tiles of 250 m. 0 or 1: the tiles run one after the other in QGIS's process. Needs the Python package dask[distributed].</source>
+      <translation>Le nombre de processus de calcul pour les tuiles (un cluster Dask local) ; sans taille de tuile, des tuiles de 250 m. 0 ou 1 : les tuiles sont calculées l'une après l'autre dans le processus de QGIS. Nécessite le paquet Python dask[distributed].</translation>
     </message>
     <message>
       <source>With tiles: the address of a running Dask scheduler (tcp://host:8786) whose workers have urbanvox's core importable; overrides the worker count.</source>

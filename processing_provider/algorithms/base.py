@@ -282,8 +282,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                      "with a halo around it, then merged: for areas whose grid does not fit in memory, or to "
                      "use several processes. A block crossing tiles is built whole by one tile; the result is "
                      "the same as with one grid. 0: one grid.",
-        "WORKERS": "With tiles: the number of worker processes (a local Dask cluster). 0 or 1: the tiles run "
-                   "one after the other in QGIS's process. Needs the Python package dask[distributed].",
+        "WORKERS": "The number of worker processes for the tiles (a local Dask cluster); without a tile size, "
+                   "tiles of 250 m. 0 or 1: the tiles run one after the other in QGIS's process. Needs the "
+                   "Python package dask[distributed].",
         "SCHEDULER": "With tiles: the address of a running Dask scheduler (tcp://host:8786) whose workers have "
                      "urbanvox's core importable; overrides the worker count.",
         "OUTPUT_BLOCKS": "One feature per building block: its closed 3-D surface, with height, areas, volumes, "
@@ -343,15 +344,21 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         raise NotImplementedError
 
     def tileOptions(self, parameters, context):  # noqa: N802
-        """TILE_SIZE, WORKERS and SCHEDULER as core.tiles.TileOptions, or None for one grid."""
+        """TILE_SIZE, WORKERS and SCHEDULER as core.tiles.TileOptions, or None for one grid.
+
+        Workers or a scheduler without a tile size mean tiles of the core's default size:
+        several processes need several tiles.
+        """
         from ...core.tiles import TileOptions
 
-        size = self.parameterAsDouble(parameters, self.TILE_SIZE, context)
-        if not size or size <= 0:
+        size = self.parameterAsDouble(parameters, self.TILE_SIZE, context) or 0.0
+        workers = int(self.parameterAsInt(parameters, self.WORKERS, context) or 0)
+        scheduler = (self.parameterAsString(parameters, self.SCHEDULER, context) or "").strip() or None
+        if size <= 0 and workers <= 1 and not scheduler:
             return None
-        scheduler = self.parameterAsString(parameters, self.SCHEDULER, context).strip() or None
-        return TileOptions(tile_size=float(size), workers=int(self.parameterAsInt(parameters, self.WORKERS, context)),
-                           scheduler=scheduler)
+        if size <= 0:
+            size = TileOptions.tile_size
+        return TileOptions(tile_size=float(size), workers=workers, scheduler=scheduler)
 
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802 (QGIS API name)
         missing = [m for m in self.requiredModules(parameters, context) if importlib.util.find_spec(m) is None]

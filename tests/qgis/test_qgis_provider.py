@@ -183,3 +183,16 @@ def test_every_string_is_translated(urbanvox_plugin, language, name):
         assert algorithm("urbanvox:reconstructfrommesh").displayName() == name
     finally:
         QCoreApplication.removeTranslator(translator)
+
+
+def test_tile_parameters_become_tile_options(urbanvox_plugin):
+    from qgis.core import QgsProcessingContext
+
+    alg = algorithm("urbanvox:reconstructfrompointcloud")
+    context = QgsProcessingContext()
+    assert alg.tileOptions({"TILE_SIZE": 0, "WORKERS": 0}, context) is None
+    options = alg.tileOptions({"TILE_SIZE": 120, "WORKERS": 3}, context)
+    assert (options.tile_size, options.workers, options.scheduler) == (120.0, 3, None)
+    # Several workers need several tiles: the default size is taken.
+    assert alg.tileOptions({"TILE_SIZE": 0, "WORKERS": 2}, context).tile_size == 250.0
+    assert alg.tileOptions({"SCHEDULER": "tcp://10.0.0.1:8786"}, context).scheduler == "tcp://10.0.0.1:8786"
