@@ -9,6 +9,7 @@ it); any scheduler address is accepted instead.
 """
 from __future__ import annotations
 
+import logging
 import os
 import shutil
 import sys
@@ -52,8 +53,10 @@ class TileRunner:
                 self.client = Client(o.scheduler)
             else:
                 _use_python_for_workers()
+                # silence_logs: a cancelled tile makes a worker log a warning per task.
                 self.cluster = LocalCluster(n_workers=int(o.workers), threads_per_worker=1,
-                                            processes=True, dashboard_address=None)
+                                            processes=True, dashboard_address=None,
+                                            silence_logs=logging.ERROR)
                 self.client = Client(self.cluster)
             self.in_flight = 2 * max(1, len(self.client.scheduler_info().get("workers", {})) or int(o.workers or 1))
         return self
