@@ -207,11 +207,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     tree = cKDTree(data)
     radius = max_distance * voxel_size
     dist, near = nearest(tree, data, p, _NEAR, radius)
-    # Distances to the line of the found neighbours only (often under half
-    # of them on roofs): elementwise, the same numbers as on the full table.
-    row, column = np.nonzero(near < len(data))
-    off_line = np.full(near.shape, np.inf)
-    off_line[row, column] = _distance_to_line(data, near[row, column, None], p[row], normal[row])[:, 0]
+    off_line = _distance_to_line(data, near, p, normal)
     ranked = _ranked(off_line, near, data, _TRIES)
     cos_max = np.cos(np.radians(max_angle))
     target = p.copy()
@@ -293,21 +289,43 @@ def _ranked(off_line: np.ndarray, near: np.ndarray, data: np.ndarray, tries: int
     return ranked
 
 
-def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray) -> np.ndarray:
+def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray,
+                      rows: int = 4096) -> np.ndarray:
     """Distance of the data points ``near`` (Q, K) to the line through each
-    node ``p`` along its ``normal`` (Q, 3).
+    node ``p`` along its ``normal`` (Q, 3); ``inf`` for missing neighbours
+    (index ``len(data)``).
 
-    One (Q, K) array per coordinate: operations on (Q, K, 3) arrays broadcast
-    along an axis of three run ufunc loops three elements long. The
-    arithmetic is that of ``offset = data[near] - p``, ``along =
-    np.einsum("qkc,qc->qk", offset, normal)`` (which, in numpy 1.24, adds the products of x
-    and z first, then y's) and ``np.linalg.norm(offset - along * normal)``.
+    The table is done ``rows`` nodes at a time: the temporaries of a block
+    stay in the cache instead of streaming tables of millions through
+    memory (and faulting fresh pages in), and each neighbour's row of
+    ``data`` is read once for its three coordinates. The arithmetic is
+    elementwise, so the blocks give the numbers of one pass; it is that of
+    ``offset = data[near] - p``, ``along = np.einsum("qkc,qc->qk", offset,
+    normal)`` (which, in numpy 1.24, adds the products of x and z first, then
+    y's) and ``np.linalg.norm(offset - along * normal)``, one (Q, K) array
+    per coordinate (operations on (Q, K, 3) arrays broadcast along an axis of
+    three run ufunc loops three elements long).
+
+    Examples
+    --------
+    >>> data = np.array([[3.0, 4.0, 7.0], [0.0, 0.0, -2.0]])
+    >>> _distance_to_line(data, np.array([[0, 1, 2]]), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+    array([[ 5.,  0., inf]])
     """
-    offset = [data[:, c][near] - p[:, c, None] for c in range(3)]
-    term = [offset[c] * normal[:, c, None] for c in range(3)]
-    along = (term[0] + term[2]) + term[1]
-    across = [offset[c] - along * normal[:, c, None] for c in range(3)]
-    return np.sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2])
+    out = np.empty(near.shape)
+    for start in range(0, len(near), rows):
+        block = slice(start, start + rows)
+        found = near[block] < len(data)
+        x = data[np.where(found, near[block], 0)]
+        q, n = p[block], normal[block]
+        offset = [x[..., c] - q[:, c, None] for c in range(3)]
+        term = [offset[c] * n[:, c, None] for c in range(3)]
+        along = (term[0] + term[2]) + term[1]
+        across = [offset[c] - along * n[:, c, None] for c in range(3)]
+        distance = np.sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2])
+        distance[~found] = np.inf
+        out[block] = distance
+    return out
 
 
 def nearest_distance(points: np.ndarray, data: np.ndarray) -> np.ndarray:
