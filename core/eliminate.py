@@ -161,11 +161,15 @@ def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: n
     """Whether a point lies within ``support * h`` of each square face."""
     r_inner = support * h                      # ball inside the supported zone
     r_outer = np.sqrt(support**2 + 0.5) * h    # ball containing it
-    supported = tree.query_ball_point(centre, r_inner, return_length=True, workers=-1) > 0
+    # The nearest point answers both ball tests ("a point within r_inner",
+    # "a point within r_outer"): one search that stops at the first point,
+    # instead of counting every point in two balls.
+    nearest, _ = tree.query(centre, k=1, distance_upper_bound=r_outer * (1 + 1e-6), workers=-1)
+    supported = _within(tree, centre, nearest, r_inner)
     open_ = np.flatnonzero(~supported)
     if len(open_) == 0:
         return supported
-    maybe = tree.query_ball_point(centre[open_], r_outer, return_length=True, workers=-1) > 0
+    maybe = _within(tree, centre[open_], nearest[open_], r_outer)
     open_ = open_[maybe]
     if len(open_) == 0:
         return supported
@@ -187,6 +191,30 @@ def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: n
     dist2 = normal**2 + dist2
     supported[open_] = (valid & (dist2 <= r_inner**2)).any(axis=1)
     return supported
+
+
+def _within(tree: cKDTree, centre: np.ndarray, nearest: np.ndarray, radius: float) -> np.ndarray:
+    """Whether a data point lies within ``radius`` of each centre, as a ball
+    query counts it (distance at most ``radius``).
+
+    ``nearest`` is the distance to the nearest point (``inf`` when none was
+    looked for that far). A ball query compares squared distances: where the
+    nearest distance is within round-off of ``radius`` (data on a lattice puts
+    points right on the sphere) the ball query itself decides, so every
+    decision is the one it makes.
+
+    Examples
+    --------
+    >>> tree = cKDTree(np.array([[0.6, 0.0, 0.0]]))
+    >>> centre = np.zeros((3, 3)); centre[1, 0] = -0.1; centre[2, 0] = 0.1
+    >>> _within(tree, centre, tree.query(centre)[0], 0.6).tolist()
+    [True, False, True]
+    """
+    inside = nearest <= radius
+    close = np.flatnonzero(np.abs(nearest - radius) <= 1e-9 * radius)
+    if len(close):
+        inside[close] = tree.query_ball_point(centre[close], radius, return_length=True) > 0
+    return inside
 
 
 def _supported_from_above(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: np.ndarray,

@@ -78,19 +78,45 @@ def _regions(model: SurfaceModel) -> list[int]:
     return ids + [r for r in (GROUND_REGION, AIR_REGION) if r in set(model.regions.ravel().tolist())]
 
 
+def _grouped_surfaces(model: SurfaceModel, regions: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """The closed surfaces of ``regions`` one after the other, and where each starts.
+
+    Returns
+    -------
+    faces : ndarray of int, shape (F, 3)
+        As :meth:`SurfaceModel.closed_surfaces`.
+    bounds : ndarray of int, shape (len(regions) + 1,)
+        Region ``regions[i]`` owns ``faces[bounds[i]:bounds[i + 1]]``.
+    """
+    faces, labels = model.closed_surfaces(regions)
+    counts = np.zeros(len(regions), dtype=np.int64)
+    if len(faces):
+        # Labels run in the order of ``regions``: count each region's rows.
+        change = np.flatnonzero(np.diff(labels)) + 1
+        starts = np.concatenate([[0], change])
+        counts_found = np.diff(np.concatenate([starts, [len(labels)]]))
+        position = {r: i for i, r in enumerate(regions)}
+        counts[[position[int(r)] for r in labels[starts]]] = counts_found
+    return faces, np.concatenate([[0], np.cumsum(counts)])
+
+
 def _write_obj(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
+    regions = _regions(model)
+    faces, bounds = _grouped_surfaces(model, regions)
     with open(path, "w", encoding="ascii") as out:
         out.write("# urbanvox: one closed, outward surface per region\n")
         np.savetxt(out, world, fmt="v %.4f %.4f %.4f")
-        for region in _regions(model):
+        for i, region in enumerate(regions):
             out.write(f"g {region_name(region)}\n")
-            np.savetxt(out, model.closed_surface(region) + 1, fmt="f %d %d %d")
+            np.savetxt(out, faces[bounds[i]:bounds[i + 1]] + 1, fmt="f %d %d %d")
 
 
 def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
+    regions = _regions(model)
+    faces, bounds = _grouped_surfaces(model, regions)
     with open(path, "w", encoding="ascii") as out:
-        for region in _regions(model):
-            tri = world[model.closed_surface(region)]
+        for i, region in enumerate(regions):
+            tri = world[faces[bounds[i]:bounds[i + 1]]]
             normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
             normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
             rows = np.concatenate([normal[:, None, :], tri], axis=1).reshape(len(tri), 12)
@@ -103,10 +129,9 @@ def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
 
 
 def _write_ply(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
-    regions = _regions(model)
-    faces = [model.closed_surface(r) for r in regions]
-    labels = np.concatenate([np.full(len(f), r, dtype=np.int32) for f, r in zip(faces, regions)])
-    faces = np.concatenate(faces)
+    # Every region's closed surface in one pass (a scan of all faces per
+    # region would cost regions x faces).
+    faces, labels = model.closed_surfaces(_regions(model))
     header = ("ply\nformat binary_little_endian 1.0\ncomment urbanvox: closed surface per region\n"
               f"element vertex {len(world)}\nproperty double x\nproperty double y\nproperty double z\n"
               f"element face {len(faces)}\nproperty list uchar int vertex_indices\n"

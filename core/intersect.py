@@ -30,6 +30,8 @@ from .quality import best_split
 
 #: Quantiles of the faces' reach that split them into size classes searched apart.
 _CLASS_QUANTILES = (0.9, 0.99)
+#: Quad pairs tested at a time (four triangle pairs each): cache-sized temporaries.
+_PAIR_BLOCK = 8192
 
 
 def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarray,
@@ -328,8 +330,12 @@ def _crossing_quads(positions: np.ndarray, quads: np.ndarray, triangles: np.ndar
     first, second = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
     found = [np.zeros((0, 2), dtype=np.int64)]
     for qa, qb in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, seeds), chunk, is_cancelled):
-        # The four triangle pairs of each quad pair (two quads never share both triangles).
-        a = (2 * qa[:, None] + first).ravel()
-        b = (2 * qb[:, None] + second).ravel()
-        found.append(_crossing_of(a, b, tri, p, rows, in_focus))
+        # The pairs a few thousand at a time: the filters' temporaries stay
+        # in the cache (each pair is tested on its own, so the pairs found
+        # are the same).
+        for start in range(0, len(qa), _PAIR_BLOCK):
+            # The four triangle pairs of each quad pair (two quads never share both triangles).
+            a = (2 * qa[start:start + _PAIR_BLOCK, None] + first).ravel()
+            b = (2 * qb[start:start + _PAIR_BLOCK, None] + second).ravel()
+            found.append(_crossing_of(a, b, tri, p, rows, in_focus))
     return tri[np.concatenate(found)]

@@ -105,9 +105,21 @@ def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
     dist, idx = tree.query(at, k=m, distance_upper_bound=upper, workers=-1)
     dist = dist.reshape(len(at), m)
     idx = idx.reshape(len(at), m)
-    point = data[np.minimum(idx, len(data) - 1)]
-    order = np.lexsort((point[..., 2], point[..., 1], point[..., 0], dist), axis=1)[:, :k]
-    return np.take_along_axis(dist, order, axis=1), np.take_along_axis(idx, order, axis=1)
+    # The tree lists neighbours by increasing distance, the missing ones
+    # (inf, len(data)) last. A row whose found distances strictly increase
+    # is already in the order the sort below gives (the missing entries are
+    # all alike): only the other rows, usually few, are sorted. Copies keep
+    # the memory layout of the sorted arrays (einsum's rounding follows it).
+    earlier, later = dist[:, :-1], dist[:, 1:]
+    unsure = np.flatnonzero((~(later > earlier) & (later != np.inf)).any(axis=1))
+    out_dist, out_idx = dist[:, :k].copy(), idx[:, :k].copy()
+    if len(unsure):
+        dist, idx = dist[unsure], idx[unsure]
+        point = data[np.minimum(idx, len(data) - 1)]
+        order = np.lexsort((point[..., 2], point[..., 1], point[..., 0], dist), axis=1)[:, :k]
+        out_dist[unsure] = np.take_along_axis(dist, order, axis=1)
+        out_idx[unsure] = np.take_along_axis(idx, order, axis=1)
+    return out_dist, out_idx
 
 
 def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
@@ -195,14 +207,8 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     tree = cKDTree(data)
     radius = max_distance * voxel_size
     dist, near = nearest(tree, data, p, _NEAR, radius)
-    found = near < len(data)
-    candidate = data[np.where(found, near, 0)]
-    off_line = _distance_to_line(data, np.where(found, near, 0), p, normal)
-    off_line[~found] = np.inf
-    # Ties (data on a lattice) broken by the points' coordinates, not by the
-    # KD-tree's visiting order: a tile then picks the points a whole run picks.
-    ranked = np.lexsort((candidate[..., 2], candidate[..., 1], candidate[..., 0], off_line),
-                        axis=1)[:, :_TRIES]
+    off_line = _distance_to_line(data, near, p, normal)
+    ranked = _ranked(off_line, near, data, _TRIES)
     cos_max = np.cos(np.radians(max_angle))
     target = p.copy()
     done = ~usable
@@ -238,21 +244,88 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     return result, stats
 
 
-def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray) -> np.ndarray:
-    """Distance of the data points ``near`` (Q, K) to the line through each
-    node ``p`` along its ``normal`` (Q, 3).
+def _ranked(off_line: np.ndarray, near: np.ndarray, data: np.ndarray, tries: int) -> np.ndarray:
+    """Columns of the ``tries`` smallest ``off_line`` of every row, smallest first.
 
-    One (Q, K) array per coordinate: operations on (Q, K, 3) arrays broadcast
-    along an axis of three run ufunc loops three elements long. The
-    arithmetic is that of ``offset = data[near] - p``, ``along =
-    np.einsum("qkc,qc->qk", offset, normal)`` (which, in numpy 1.24, adds the products of x
-    and z first, then y's) and ``np.linalg.norm(offset - along * normal)``.
+    Ties (data on a lattice) are broken by the points' coordinates, not by
+    the KD-tree's visiting order: a tile then picks the points a whole run
+    picks. That is a sort of each row by (distance, x, y, z); a partial
+    selection of the ``tries + 1`` smallest distances gives the same columns
+    on the rows where these distances strictly increase, and only the other
+    rows are sorted in full. Where missing neighbours (``inf``) make the
+    first ``tries``, which of them comes is of no matter: the caller skips
+    infinite distances.
+
+    Parameters
+    ----------
+    off_line : ndarray (Q, K)
+        Distance of each neighbour to the node's line, ``inf`` when missing.
+    near : ndarray of int (Q, K)
+        The neighbours (``len(data)`` when missing).
+    data : ndarray (P, 3)
+    tries : int
+
+    Returns
+    -------
+    ndarray of int (Q, min(tries, K))
     """
-    offset = [data[:, c][near] - p[:, c, None] for c in range(3)]
-    term = [offset[c] * normal[:, c, None] for c in range(3)]
-    along = (term[0] + term[2]) + term[1]
-    across = [offset[c] - along * normal[:, c, None] for c in range(3)]
-    return np.sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2])
+    q, k = off_line.shape
+    tries = min(tries, k)
+    if k <= tries + 1 or q == 0:
+        unsure = np.arange(q)
+        ranked = np.zeros((q, tries), dtype=np.intp)
+    else:
+        # The tries + 1 smallest, in any order, then in order (a sort of few columns).
+        few = np.argpartition(off_line, tries, axis=1)[:, :tries + 1]
+        few = np.take_along_axis(few, np.argsort(np.take_along_axis(off_line, few, axis=1), axis=1), axis=1)
+        value = np.take_along_axis(off_line, few, axis=1)
+        increasing = (value[:, 1:] > value[:, :-1]) | (value[:, 1:] == np.inf)
+        ranked = few[:, :tries]
+        unsure = np.flatnonzero(~increasing.all(axis=1))
+    if len(unsure):
+        candidate = data[np.where(near[unsure] < len(data), near[unsure], 0)]
+        ranked[unsure] = np.lexsort((candidate[..., 2], candidate[..., 1], candidate[..., 0], off_line[unsure]),
+                                    axis=1)[:, :tries]
+    return ranked
+
+
+def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray,
+                      rows: int = 4096) -> np.ndarray:
+    """Distance of the data points ``near`` (Q, K) to the line through each
+    node ``p`` along its ``normal`` (Q, 3); ``inf`` for missing neighbours
+    (index ``len(data)``).
+
+    The table is done ``rows`` nodes at a time: the temporaries of a block
+    stay in the cache instead of streaming tables of millions through
+    memory (and faulting fresh pages in), and each neighbour's row of
+    ``data`` is read once for its three coordinates. The arithmetic is
+    elementwise, so the blocks give the numbers of one pass; it is that of
+    ``offset = data[near] - p``, ``along = np.einsum("qkc,qc->qk", offset,
+    normal)`` (which, in numpy 1.24, adds the products of x and z first, then
+    y's) and ``np.linalg.norm(offset - along * normal)``, one (Q, K) array
+    per coordinate (operations on (Q, K, 3) arrays broadcast along an axis of
+    three run ufunc loops three elements long).
+
+    Examples
+    --------
+    >>> data = np.array([[3.0, 4.0, 7.0], [0.0, 0.0, -2.0]])
+    >>> _distance_to_line(data, np.array([[0, 1, 2]]), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+    array([[ 5.,  0., inf]])
+    """
+    out = np.empty(near.shape)
+    for start in range(0, len(near), rows):
+        block = slice(start, start + rows)
+        found = near[block] < len(data)
+        x = data[np.where(found, near[block], 0)]
+        q, n = p[block], normal[block]
+        offset = [x[..., c] - q[:, c, None] for c in range(3)]
+        term = [offset[c] * n[:, c, None] for c in range(3)]
+        along = (term[0] + term[2]) + term[1]
+        across = [offset[c] - along * n[:, c, None] for c in range(3)]
+        distance = np.sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2])
+        distance[~found] = np.inf
+        out[block] = distance
+    return out
 
 
 def nearest_distance(points: np.ndarray, data: np.ndarray) -> np.ndarray:

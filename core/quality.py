@@ -80,7 +80,35 @@ def quad_quality(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return _split_quality(nodes, quads)[1]
 
 
-def _split_quality(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _split_quality(nodes: np.ndarray, quads: np.ndarray,
+                   block: int = 16384) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Which split of each quad is better, its quality, and the quad's normal.
+
+    :func:`_split_quality_of` on ``block`` quads at a time: its some fifty
+    temporaries of one block stay in the cache, where on millions of quads
+    each would stream through memory (and fault fresh pages in). Every
+    number is computed elementwise, so the blocks give the numbers of one pass.
+
+    Returns
+    -------
+    use_second : ndarray of bool (M,)
+    quality : ndarray (M,)
+    normal : ndarray (M, 3)
+        As :func:`_split_quality_of`.
+    """
+    m = len(quads)
+    if m <= block:
+        return _split_quality_of(nodes, quads)
+    use_second = np.empty(m, dtype=bool)
+    quality = np.empty(m)
+    normal = np.empty((m, 3))
+    for start in range(0, m, block):
+        part = slice(start, start + block)
+        use_second[part], quality[part], normal[part] = _split_quality_of(nodes, quads[part])
+    return use_second, quality, normal
+
+
+def _split_quality_of(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which split of each quad is better, its quality, and the quad's normal.
 
     The four triangles of the two splits share their six edges (four sides,
@@ -100,7 +128,9 @@ def _split_quality(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np
         As :func:`quad_normals`.
     """
     corner = quads.T
-    x = [np.ascontiguousarray(nodes[:, c])[corner] for c in range(3)]  # (4, M) each
+    # Gathered from the (N, 3) table: a node's three coordinates share a
+    # cache line, and no copy of the N nodes is made for a few quads.
+    x = [nodes[:, c][corner] for c in range(3)]  # (4, M) each
 
     def edge(i: int, j: int) -> list[np.ndarray]:
         return [x[c][j] - x[c][i] for c in range(3)]

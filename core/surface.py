@@ -15,6 +15,7 @@ face must point out of the building cell which contains the face".
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -133,6 +134,55 @@ class SurfaceModel:
         inward = self.regions[index, 1] == region
         quads[inward] = quads[inward, ::-1]
         return quads
+
+    def closed_surfaces(self, regions: Sequence[int]) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`closed_surface` of each of ``regions``, one after the other.
+
+        One sort of the faces' two sides instead of a scan of every face
+        per region: a city has thousands of blocks and millions of faces.
+
+        Parameters
+        ----------
+        regions : sequence of int
+            Distinct region ids, in the order wanted.
+
+        Returns
+        -------
+        quads : ndarray of int, shape (F, K)
+            ``closed_surface(regions[0])``, then ``closed_surface(regions[1])``, ...
+        region : ndarray of int32, shape (F,)
+            The region each row bounds.
+
+        Examples
+        --------
+        >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (1, 1, 3))
+        >>> s = SurfaceModel.from_regions(g, np.array([GROUND_REGION, 1, AIR_REGION], np.int32).reshape(1, 1, 3))
+        >>> quads, region = s.closed_surfaces([1, GROUND_REGION])
+        >>> np.array_equal(quads, np.concatenate([s.closed_surface(1), s.closed_surface(GROUND_REGION)]))
+        True
+        """
+        wanted = np.asarray(regions, dtype=np.int64)
+        m = len(self.quads)
+        if len(wanted) == 0 or m == 0:
+            return self.quads[:0].copy(), np.zeros(0, dtype=np.int32)
+        # Rank of every wanted region in the order asked for, -1 for the others.
+        ids = np.unique(wanted)
+        rank_of_id = np.full(len(ids), -1, dtype=np.int64)
+        rank_of_id[np.searchsorted(ids, wanted)] = np.arange(len(wanted))
+        # Face f's two sides are entries 2 f and 2 f + 1: in entry order each
+        # region meets its faces in face order (a face has two different
+        # regions), so a stable sort on the rank alone gives, per region, the
+        # faces of closed_surface in its order. Small ranks sort by radix.
+        side_region = self.regions.ravel().astype(np.int64)
+        at = np.minimum(np.searchsorted(ids, side_region), len(ids) - 1)
+        rank = np.where(ids[at] == side_region, rank_of_id[at], -1)
+        entry = np.flatnonzero(rank >= 0)
+        key = rank[entry].astype(np.int16 if len(wanted) <= np.iinfo(np.int16).max else np.int64)
+        entry = entry[np.argsort(key, kind="stable")]
+        quads = self.quads[entry >> 1]
+        inward = (entry & 1).astype(bool)  # side 1: the face points into the region, flip it
+        quads[inward] = quads[inward, ::-1]
+        return quads, side_region[entry].astype(np.int32)
 
     def block_faces(self) -> tuple[np.ndarray, np.ndarray]:
         """Every face of every block, oriented out of it, and the block owning each.

@@ -60,6 +60,22 @@ def test_vtu_and_ply_carry_the_regions(result, tmp_path):
     assert check_surface(np.asarray(ply.faces)[region == -2]).ok  # the air, closed
 
 
+def test_closed_surfaces_are_the_closed_surface_of_each_region(result):
+    """The one-sort grouping the writers use gives each region's faces, in
+    order and orientation, as a scan of all faces per region does."""
+    from core.export import _grouped_surfaces, _regions
+
+    for model in (result.mesh, result.mesh.triangulated()):
+        regions = _regions(model)[::-1]  # any order asked for is kept
+        faces, labels = model.closed_surfaces(regions)
+        expected = [model.closed_surface(r) for r in regions]
+        assert np.array_equal(faces, np.concatenate(expected))
+        assert np.array_equal(labels, np.concatenate([np.full(len(f), r) for f, r in zip(expected, regions)]))
+        grouped, bounds = _grouped_surfaces(model, regions)
+        for i, faces_of_region in enumerate(expected):
+            assert np.array_equal(grouped[bounds[i]:bounds[i + 1]], faces_of_region)
+
+
 def test_write_is_atomic_and_rejects_unknown_formats(result, tmp_path):
     from core.errors import UrbanvoxError
     with pytest.raises(UrbanvoxError, match="Unknown mesh format"):
