@@ -228,6 +228,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
 
 
 def _per_block(ids: np.ndarray, values: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Smallest and largest ``values`` of each block ``1..n`` (ids ``ids``)."""
     lo = np.full(n + 1, np.iinfo(np.int64).max)
     hi = np.full(n + 1, np.iinfo(np.int64).min)
     np.minimum.at(lo, ids, values)
