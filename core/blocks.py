@@ -17,8 +17,22 @@ from .classify import AIR, BUILDING, FACE_ADJACENCY
 from .grid import VoxelGrid
 
 
+class BlockRows:
+    """A dataclass of per-block arrays of equal length: rows are selected and
+    tables of separate pieces (clusters, tiles) are stacked field by field."""
+
+    def select(self, keep: np.ndarray):
+        """Rows where ``keep`` is true (or at the indices ``keep``)."""
+        return type(self)(**{f.name: getattr(self, f.name)[keep] for f in fields(self)})
+
+    @classmethod
+    def concatenate(cls, tables: list):
+        """The rows of ``tables``, one table after the other."""
+        return cls(**{f.name: np.concatenate([getattr(t, f.name) for t in tables]) for f in fields(cls)})
+
+
 @dataclass
-class BlockTable:
+class BlockTable(BlockRows):
     """Attributes of every block, one entry per block id ``1..n`` in order.
 
     Heights are local z; ``ground_z`` is the bottom of the block's lowest
@@ -39,10 +53,6 @@ class BlockTable:
 
     def __len__(self) -> int:
         return len(self.block_id)
-
-    def select(self, keep: np.ndarray) -> "BlockTable":
-        """Rows where ``keep`` is true."""
-        return BlockTable(**{f.name: getattr(self, f.name)[keep] for f in fields(self)})
 
 
 def label_blocks(labels: np.ndarray) -> tuple[np.ndarray, int]:

@@ -75,10 +75,8 @@ def merge(parts: list) -> "Reconstruction":  # noqa: F821 - core.pipeline.Recons
         n_blocks += len(part.blocks)
     surface = SurfaceModel(np.concatenate(nodes), np.concatenate(quads), np.concatenate(regions))
     mesh = SurfaceModel(np.concatenate(moved), surface.quads, surface.regions)
-    table = BlockTable(**{name: np.concatenate([getattr(t, name) for t in tables])
-                          for name in BlockTable.__dataclass_fields__})
-    measure = BlockMeasures(**{name: np.concatenate([getattr(m, name) for m in measures])
-                               for name in BlockMeasures.__dataclass_fields__})
+    table = BlockTable.concatenate(tables)
+    measure = BlockMeasures.concatenate(measures)
     upper = np.max([p.grid.offset + np.asarray(p.grid.shape) * h for p in parts], axis=0)
     grid = VoxelGrid(offset, np.zeros(3), h, tuple(int(n) for n in np.rint((upper - offset) / h)))
     timings: dict[str, float] = {}

@@ -14,12 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .blocks import BlockRows
 from .quality import best_split
 from .surface import SurfaceModel
 
 
 @dataclass
-class BlockMeasures:
+class BlockMeasures(BlockRows):
     """Mesh measures of blocks ``1..n`` (arrays of length n, CRS units)."""
 
     volume: np.ndarray

@@ -215,8 +215,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
 
     rows = np.flatnonzero(owned)[order]
     blocks = table.select(rows)
-    measures = BlockMeasures(**{name: getattr(result.measures, name)[own_ids[order] - 1]
-                                for name in BlockMeasures.__dataclass_fields__})
+    measures = result.measures.select(own_ids[order] - 1)
     fc_keep = renumber[ids] > 0
     columns = np.column_stack([renumber[ids[fc_keep]], gi[fc_keep], gj[fc_keep]])
     columns = columns[np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0]))]
@@ -228,7 +227,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
 
 
 def _per_block(ids: np.ndarray, values: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest and largest ``values`` of each block ``1..n`` (ids ``ids``)."""
+    """Smallest and largest ``values`` of each block (or group) ``1..n`` (ids ``ids``)."""
     lo = np.full(n + 1, np.iinfo(np.int64).max)
     hi = np.full(n + 1, np.iinfo(np.int64).min)
     np.minimum.at(lo, ids, values)
@@ -291,16 +290,10 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     surface = SurfaceModel(nodes, all_quads, all_regions)
     mesh = SurfaceModel(final, all_quads, all_regions)
 
-    tables = [p.blocks for p in pieces]
-    table = BlockTable(**{name: np.concatenate([getattr(t, name) for t in tables])
-                          for name in BlockTable.__dataclass_fields__})
-    measures = BlockMeasures(**{name: np.concatenate([getattr(p.measures, name) for p in pieces])
-                                for name in BlockMeasures.__dataclass_fields__})
     by_id = np.argsort(global_id)
-    table = table.select(by_id)
+    table = BlockTable.concatenate([p.blocks for p in pieces]).select(by_id)
     table.block_id = np.arange(1, len(by_id) + 1, dtype=np.int64)
-    measures = BlockMeasures(**{name: getattr(measures, name)[by_id]
-                                for name in BlockMeasures.__dataclass_fields__})
+    measures = BlockMeasures.concatenate([p.measures for p in pieces]).select(by_id)
     columns = np.concatenate(columns)
     columns = columns[np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0]))]
     return grid, table, surface, mesh, measures, columns
@@ -409,10 +402,9 @@ def _monotone(progress: Callable[[float, str], None] | None) -> Callable[[float,
 def _building_columns(building: np.ndarray, level: GroundLevel, domain: GridWindow, h: float) -> np.ndarray:
     """Columns of the domain holding a building point above the ground level."""
     nx, ny, _ = domain.shape
-    local = building - domain.lower
-    i = np.clip(np.floor(local[:, 0] / h).astype(np.int64), 0, nx - 1)
-    j = np.clip(np.floor(local[:, 1] / h).astype(np.int64), 0, ny - 1)
-    above = local[:, 2] > level.z[i, j] + 0.5 * h
+    i = _column(building[:, 0], domain.lower[0], h, nx)
+    j = _column(building[:, 1], domain.lower[1], h, ny)
+    above = building[:, 2] - domain.lower[2] > level.z[i, j] + 0.5 * h
     mask = np.zeros((nx, ny), dtype=bool)
     mask[i[above], j[above]] = True
     return mask
@@ -440,25 +432,25 @@ def initial_windows(cores: list[Columns], tile: int, halo: int, domain: GridWind
     from scipy import ndimage
 
     nx, ny, _ = domain.shape
-    windows = [[max(0, i0 - halo), max(0, j0 - halo), min(nx, i1 + halo), min(ny, j1 + halo)]
-               for i0, j0, i1, j1 in cores]
+    core = np.array(cores, dtype=np.int64).reshape(-1, 4)
+    windows = np.column_stack([np.maximum(0, core[:, 0] - halo), np.maximum(0, core[:, 1] - halo),
+                               np.minimum(nx, core[:, 2] + halo), np.minimum(ny, core[:, 3] + halo)])
     mask = ndimage.binary_dilation(building_columns, iterations=2, structure=np.ones((3, 3), bool))
     groups, n = ndimage.label(mask, structure=np.ones((3, 3), bool))
-    if n == 0:
-        return [tuple(w) for w in windows]
-    gi, gj = np.nonzero(groups)
-    label = groups[gi, gj]
-    order = np.lexsort((gj, gi, label))  # by group, then i, then j
-    first = order[np.unique(label[order], return_index=True)[1]]
-    tiles_y = -(-ny // tile)
-    owner = (gi[first] // tile) * tiles_y + gj[first] // tile  # plan_tiles order: i major
-    for group, box in enumerate(ndimage.find_objects(groups)):
-        w = windows[owner[group]]
-        w[0] = min(w[0], max(0, box[0].start - halo))
-        w[1] = min(w[1], max(0, box[1].start - halo))
-        w[2] = max(w[2], min(nx, box[0].stop + halo))
-        w[3] = max(w[3], min(ny, box[1].stop + halo))
-    return [tuple(w) for w in windows]
+    if n > 0:
+        gi, gj = np.nonzero(groups)
+        label = groups[gi, gj]
+        order = np.lexsort((gj, gi, label))  # by group, then i, then j
+        first = order[np.unique(label[order], return_index=True)[1]]
+        tiles_y = -(-ny // tile)
+        owner = (gi[first] // tile) * tiles_y + gj[first] // tile  # plan_tiles order: i major
+        lo_i, hi_i = _per_block(label, gi, n)
+        lo_j, hi_j = _per_block(label, gj, n)
+        np.minimum.at(windows[:, 0], owner, np.maximum(0, lo_i - halo))
+        np.minimum.at(windows[:, 1], owner, np.maximum(0, lo_j - halo))
+        np.maximum.at(windows[:, 2], owner, np.minimum(nx, hi_i + 1 + halo))
+        np.maximum.at(windows[:, 3], owner, np.minimum(ny, hi_j + 1 + halo))
+    return [tuple(int(v) for v in w) for w in windows]
 
 
 class _Cropper:
