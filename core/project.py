@@ -115,8 +115,7 @@ def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
     out_dist, out_idx = dist[:, :k].copy(), idx[:, :k].copy()
     if len(unsure):
         dist, idx = dist[unsure], idx[unsure]
-        point = data[np.minimum(idx, len(data) - 1)]
-        order = np.lexsort((point[..., 2], point[..., 1], point[..., 0], dist), axis=1)[:, :k]
+        order = _by_value_then_coordinates(dist, idx, data, k)
         out_dist[unsure] = np.take_along_axis(dist, order, axis=1)
         out_idx[unsure] = np.take_along_axis(idx, order, axis=1)
     return out_dist, out_idx
@@ -283,10 +282,16 @@ def _ranked(off_line: np.ndarray, near: np.ndarray, data: np.ndarray, tries: int
         ranked = few[:, :tries]
         unsure = np.flatnonzero(~increasing.all(axis=1))
     if len(unsure):
-        candidate = data[np.where(near[unsure] < len(data), near[unsure], 0)]
-        ranked[unsure] = np.lexsort((candidate[..., 2], candidate[..., 1], candidate[..., 0], off_line[unsure]),
-                                    axis=1)[:, :tries]
+        ranked[unsure] = _by_value_then_coordinates(off_line[unsure], near[unsure], data, tries)
     return ranked
+
+
+def _by_value_then_coordinates(value: np.ndarray, index: np.ndarray, data: np.ndarray, k: int) -> np.ndarray:
+    """Columns of the ``k`` smallest ``value`` of every row, ties broken by the
+    (x, y, z) of the data points ``index`` (``len(data)`` for a missing one,
+    whose value is ``inf``): an order that does not depend on the KD-tree."""
+    point = data[np.minimum(index, len(data) - 1)]
+    return np.lexsort((point[..., 2], point[..., 1], point[..., 0], value), axis=1)[:, :k]
 
 
 def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray,
