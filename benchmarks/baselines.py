@@ -23,7 +23,7 @@ import numpy as np
 from core.classify import BUILDING, FACE_ADJACENCY, classify_voxels
 from core.clusters import split_clusters
 from core.crs import metres_per_unit
-from core.grid import VoxelGrid
+from core.grid import GridWindow, VoxelGrid
 from core.ground import column_ground_level
 from core.manifold import make_well_composed, repair_height_field
 
@@ -59,12 +59,8 @@ def pipeline_grids(ground: np.ndarray, building: np.ndarray, crs, voxel_size: fl
             gc, bc = cluster[:len(ground)], cluster[len(ground):]
             groups = [(ground[gc == c], building[bc == c]) for c in np.unique(bc) if (gc == c).any()]
     for g, b in groups:
-        everything = np.concatenate([g, b]) if len(b) else g
-        lower, upper = everything.min(axis=0), everything.max(axis=0)
-        del everything
-        lower = np.floor(lower / h) * h - np.array([0.0, 0.0, h])
-        grid = VoxelGrid.around(np.zeros(3), upper - lower, h, offset=lower, extra_top=1)
-        yield grid, g - lower, b - lower
+        grid = GridWindow.around(g, b, h).grid(h)
+        yield grid, g - grid.offset, b - grid.offset
 
 
 def front_labels(grid: VoxelGrid, ground: np.ndarray, building: np.ndarray, airborne: bool,

@@ -121,8 +121,6 @@ def _rss_mb() -> float:
 
 def run_case(spec: dict) -> dict:
     """Read, reconstruct, export; then the baselines on the same data. In this process."""
-    import numpy as np
-
     from core.crs import metres_per_unit, resolve_crs
     from core.pipeline import ReconstructionParams, reconstruct_points
 

@@ -20,7 +20,7 @@ from .errors import UrbanvoxError
 #: Bytes per voxel the voxel stages hold at once: labels (uint8), boolean
 #: masks, the int32 output of scipy.ndimage.label and the int32 regions the
 #: faces are read from. An estimate from those arrays, used by the memory
-#: guard; benchmarks/stages.py prints the measured peak of every stage.
+#: guard; benchmarks/run.py prints the measured peak of every stage.
 BYTES_PER_VOXEL = 16
 
 #: Points binned at once by :meth:`VoxelGrid.occupancy`: the float temporaries of a
