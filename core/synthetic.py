@@ -583,14 +583,18 @@ def make_district(seed: int = 0) -> District:
                                float(h), float(rise) if gable else 0.0,
                                "gable" if gable else "flat", 0 if long_x else 90,
                                bool(floor), str(wind)))
-    names = list(dict.fromkeys(p.block for p in parts))
+    return _district_of(parts, seed, _TREES.copy())
+
+
+def _district_of(parts: list[_Part], seed: int, trees: np.ndarray) -> District:
+    """A 250 m tile from its parts: one truth block per block name, in order of first part."""
     blocks, walls = [], []
-    for name in names:
+    for name in dict.fromkeys(p.block for p in parts):
         bt, w = _block_truth(name, [p for p in parts if p.block == name])
         blocks.append(bt)
         walls.append(w)
     extent = (ORIGIN[0], ORIGIN[1], ORIGIN[0] + SIZE, ORIGIN[1] + SIZE)
-    return District(extent, blocks, seed, parts, _TREES.copy(), np.vstack(walls))
+    return District(extent, blocks, seed, parts, trees, np.vstack(walls))
 
 # --- a city: districts and denser residential tiles side by side ---------------------
 
@@ -653,14 +657,7 @@ def make_residential(seed: int = 0) -> District:
     trees = np.column_stack([HOUSE_SLOT * (1 + corners // (slots - 1)),
                              HOUSE_SLOT * (1 + corners % (slots - 1)),
                              rng.uniform(1.5, 2.5, len(corners)), rng.uniform(6.0, 12.0, len(corners))])
-    names = list(dict.fromkeys(p.block for p in parts))
-    blocks, walls = [], []
-    for name in names:
-        bt, w = _block_truth(name, [p for p in parts if p.block == name])
-        blocks.append(bt)
-        walls.append(w)
-    extent = (ORIGIN[0], ORIGIN[1], ORIGIN[0] + SIZE, ORIGIN[1] + SIZE)
-    return District(extent, blocks, seed, parts, trees, np.vstack(walls))
+    return _district_of(parts, seed, trees)
 
 
 @dataclass
