@@ -97,7 +97,7 @@ def synthetic_path(case: dict, seed: int = 0) -> Path:
             path.parent.mkdir(parents=True, exist_ok=True)
             make_district(seed).write_las(path)
         return path
-    from core.synthetic import make_city
+    from core.synthetic_city import make_city
 
     path = CACHE / f"city-{case['size']:g}m-seed{seed}" / "city.laz"
     if not path.exists():
