@@ -129,20 +129,13 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     -------
     centre : ndarray (Q, 3)
         Weighted centroid, a point of the plane.
-    normal : ndarray (Q, 3)
-        Unit normal (smallest principal axis).
+    axes : ndarray (Q, 3, 3)
+        Principal axes, smallest first: the unit normal is ``axes[:, :, 0]``.
+        Callers take it as that strided view, after any gather of the rows
+        (``einsum`` rounds differently on a contiguous copy).
     flat : ndarray of bool (Q,)
         The neighbourhood spans a plane (not a line or a point).
     """
-    centre, vectors, flat = _principal_axes(data, tree, at, sigma, k)
-    return centre, vectors[:, :, 0], flat
-
-
-def _principal_axes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
-                    k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`mls_planes` with all three axes (Q, 3, 3), smallest first: the
-    normal is ``[:, :, 0]``, a strided view, as the callers' dot products
-    expect (``einsum`` rounds differently on a contiguous copy)."""
     dist, idx = nearest(tree, data, at, k)
     x = data[idx]
     w = np.exp(-(dist / sigma) ** 2)
@@ -219,7 +212,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
             break
         # Neighbouring nodes often pick the same data point: one plane per point.
         chosen, which = np.unique(near[todo, ranked[todo, attempt]], return_inverse=True)
-        centre, axes, flat = _principal_axes(data, tree, data[chosen], 0.5 * voxel_size, _PLANE_POINTS)
+        centre, axes, flat = mls_planes(data, tree, data[chosen], 0.5 * voxel_size, _PLANE_POINTS)
         centre, flat, plane_normal = centre[which], flat[which], axes[which][:, :, 0]
         cos = np.einsum("qc,qc->q", plane_normal, normal[todo])
         compatible = flat & (np.abs(cos) >= cos_max)
