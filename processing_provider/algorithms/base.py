@@ -329,7 +329,11 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
     def inputPath(self, parameters, name, context):  # noqa: N802
         """The file parameter ``name`` as a path, checked to exist ('' when an optional one is unset)."""
         path = self.parameterAsFile(parameters, name, context)
-        if path and not os.path.isfile(path):
+        return self.existingFile(path) if path else path
+
+    def existingFile(self, path):  # noqa: N802
+        """``path``, or an error saying it is not found."""
+        if not os.path.isfile(path):
             raise QgsProcessingException(self.tr("File not found: {}").format(path))
         return path
 

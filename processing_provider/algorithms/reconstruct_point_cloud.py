@@ -1,7 +1,5 @@
 """``urbanvox:reconstructfrompointcloud``: building blocks from a classified LAS/LAZ point cloud."""
 
-import os
-
 from qgis.core import QgsProcessingException, QgsProcessingParameterMultipleLayers, QgsProcessingParameterString
 
 from ..compat import SOURCE_FILE
@@ -46,8 +44,7 @@ class ReconstructFromPointCloud(UrbanvoxAlgorithm):
         if not paths:
             raise QgsProcessingException(self.tr("No point cloud file given (INPUT)."))
         for path in paths:
-            if not os.path.isfile(path):
-                raise QgsProcessingException(self.tr("File not found: {}").format(path))
+            self.existingFile(path)
             if not path.lower().endswith((".las", ".laz")):
                 raise QgsProcessingException(self.tr("Not a LAS/LAZ file: {}").format(path))
         return paths
