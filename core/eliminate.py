@@ -23,6 +23,7 @@ from scipy.spatial import cKDTree
 from .classify import AIR, BUILDING
 from .errors import Cancelled
 from .grid import VoxelGrid
+from .neighbours import search_tree
 
 #: Candidates examined per face when the quick ball tests cannot decide.
 _CANDIDATES = 16
@@ -138,8 +139,8 @@ class _SupportTest:
         self.grid = grid
         self.support = support
         self.extrude_roofs = extrude_roofs
-        self.tree = cKDTree(points) if len(points) else None
-        self.tree_2d = cKDTree(points[:, :2]) if len(points) and extrude_roofs else None
+        self.tree = search_tree(points) if len(points) else None
+        self.tree_2d = search_tree(points[:, :2]) if len(points) and extrude_roofs else None
 
     def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:
         if self.tree is None:

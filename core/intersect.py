@@ -23,9 +23,9 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from .errors import Cancelled
+from .neighbours import search_tree
 from .quality import best_split
 
 #: Quantiles of the faces' reach that split them into size classes searched apart.
@@ -164,8 +164,8 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk
     classes = range(len(bounds) + 1)
     seed_of = [np.flatnonzero(is_seed & (size_class == k)) for k in classes]
     other_of = [np.flatnonzero(~is_seed & (size_class == k)) for k in classes]
-    seed_tree = [_tree(centre[s]) if len(s) else None for s in seed_of]
-    other_tree = [_tree(centre[o]) if len(o) else None for o in other_of]
+    seed_tree = [search_tree(centre[s]) if len(s) else None for s in seed_of]
+    other_tree = [search_tree(centre[o]) if len(o) else None for o in other_of]
     for k in classes:
         s = seed_of[k]
         if len(s) == 0:
@@ -191,17 +191,11 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk
                 if is_cancelled is not None and is_cancelled():
                     raise Cancelled()
                 part = s[start:start + chunk]
-                pairs = _tree(centre[part]).sparse_distance_matrix(tree, radius, output_type="ndarray")
+                pairs = search_tree(centre[part]).sparse_distance_matrix(tree, radius, output_type="ndarray")
                 a, b = part[pairs["i"]], o[pairs["j"]]
                 if same:  # found from both sides
                     a, b = a[a < b], b[a < b]
                 yield a, b
-
-
-def _tree(points: np.ndarray) -> cKDTree:
-    """A KD-tree for a one-off pair search: unbalanced and uncompacted trees
-    build faster, and a search finds the same pairs (in another order)."""
-    return cKDTree(points, balanced_tree=False, compact_nodes=False)
 
 
 def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:

@@ -41,9 +41,11 @@ from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
 from .grid import GridWindow, VoxelGrid, check_face_memory, check_memory
 from .ground import GroundLevel, column_ground_level
+from .heap import reusing_freed_memory
 from .manifold import make_well_composed, repair_height_field
 from .measure import BlockMeasures, measure_blocks
-from .project import nearest_distance, project_nodes
+from .neighbours import nearest_distance
+from .project import project_nodes
 from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
 from .tiles import TileOptions, reconstruct_tiled
@@ -251,6 +253,7 @@ class Reconstruction:
         return out
 
 
+@reusing_freed_memory()
 def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: str | None = None,
                             ground_classes: str | Sequence[int] = "2",
                             building_classes: str | Sequence[int] = "6",
@@ -286,6 +289,7 @@ def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: st
                               progress=progress, is_cancelled=is_cancelled)
 
 
+@reusing_freed_memory()
 def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | None = None,
                      params: ReconstructionParams | None = None,
                      tiles: TileOptions | None = None,
@@ -321,6 +325,7 @@ def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | No
                               tiles=tiles, progress=progress, is_cancelled=is_cancelled)
 
 
+@reusing_freed_memory()
 def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: ReconstructionParams,
                        *, airborne: bool, warnings: list[str] | None = None,
                        progress: Progress | None = None,

@@ -27,6 +27,7 @@ from scipy.spatial import cKDTree
 
 from .errors import Cancelled
 from .intersect import undo_crossings
+from .neighbours import by_value_then_coordinates, nearest, search_tree
 from .quality import accept_moves, best_split
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
@@ -82,43 +83,6 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
             quads = quads[wanted[quads].any(axis=1)]
             normal[wanted] = node_normals(nodes, quads, n)[wanted]
     return normal
-
-
-def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
-            upper: float = np.inf, spare: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """The ``k`` nearest data points of every point ``at``, ties broken by coordinates.
-
-    A KD-tree returns points at equal distances in the order it visits them,
-    which depends on all the data it holds; ``spare`` more are asked for and
-    the ``k`` kept are the nearest, then the smallest in (x, y, z). Missing
-    neighbours (beyond ``upper``) have distance ``inf`` and index ``len(data)``.
-
-    Examples
-    --------
-    >>> data = np.array([[1., 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]])
-    >>> dist, idx = nearest(cKDTree(data), data, np.zeros((1, 3)), 2)
-    >>> data[idx[0]].tolist()
-    [[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
-    """
-    k = min(k, len(data))
-    m = min(k + spare, len(data))
-    dist, idx = tree.query(at, k=m, distance_upper_bound=upper, workers=-1)
-    dist = dist.reshape(len(at), m)
-    idx = idx.reshape(len(at), m)
-    # The tree lists neighbours by increasing distance, the missing ones
-    # (inf, len(data)) last. A row whose found distances strictly increase
-    # is already in the order the sort below gives (the missing entries are
-    # all alike): only the other rows, usually few, are sorted. Copies keep
-    # the memory layout of the sorted arrays (einsum's rounding follows it).
-    earlier, later = dist[:, :-1], dist[:, 1:]
-    unsure = np.flatnonzero((~(later > earlier) & (later != np.inf)).any(axis=1))
-    out_dist, out_idx = dist[:, :k].copy(), idx[:, :k].copy()
-    if len(unsure):
-        dist, idx = dist[unsure], idx[unsure]
-        order = _by_value_then_coordinates(dist, idx, data, k)
-        out_dist[unsure] = np.take_along_axis(dist, order, axis=1)
-        out_idx[unsure] = np.take_along_axis(idx, order, axis=1)
-    return out_dist, out_idx
 
 
 def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
@@ -196,7 +160,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     usable = length[:, 0] > 1e-6
     normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
     p = nodes[idx_nodes]
-    tree = cKDTree(data)
+    tree = search_tree(data)
     radius = max_distance * voxel_size
     dist, near = nearest(tree, data, p, _NEAR, radius)
     off_line = _distance_to_line(data, near, p, normal)
@@ -275,16 +239,8 @@ def _ranked(off_line: np.ndarray, near: np.ndarray, data: np.ndarray, tries: int
         ranked = few[:, :tries]
         unsure = np.flatnonzero(~increasing.all(axis=1))
     if len(unsure):
-        ranked[unsure] = _by_value_then_coordinates(off_line[unsure], near[unsure], data, tries)
+        ranked[unsure] = by_value_then_coordinates(off_line[unsure], near[unsure], data, tries)
     return ranked
-
-
-def _by_value_then_coordinates(value: np.ndarray, index: np.ndarray, data: np.ndarray, k: int) -> np.ndarray:
-    """Columns of the ``k`` smallest ``value`` of every row, ties broken by the
-    (x, y, z) of the data points ``index`` (``len(data)`` for a missing one,
-    whose value is ``inf``): an order that does not depend on the KD-tree."""
-    point = data[np.minimum(index, len(data) - 1)]
-    return np.lexsort((point[..., 2], point[..., 1], point[..., 0], value), axis=1)[:, :k]
 
 
 def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray,
@@ -324,10 +280,3 @@ def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal:
         distance[~found] = np.inf
         out[block] = distance
     return out
-
-
-def nearest_distance(points: np.ndarray, data: np.ndarray) -> np.ndarray:
-    """Distance from every point to the nearest data point."""
-    if len(data) == 0 or len(points) == 0:
-        return np.full(len(points), np.nan)
-    return cKDTree(data).query(points, k=1, workers=-1)[0]

@@ -13,9 +13,11 @@ import logging
 import os
 import shutil
 import sys
-from typing import TYPE_CHECKING, Callable
+from contextlib import contextmanager
+from typing import TYPE_CHECKING, Callable, Iterator
 
 from .errors import Cancelled, UrbanvoxError
+from .heap import WORKER_ENVIRONMENT
 
 if TYPE_CHECKING:
     from .tiles import Columns, TileJob, TileOptions, TilePiece
@@ -53,10 +55,11 @@ class TileRunner:
                 self.client = Client(o.scheduler)
             else:
                 _use_python_for_workers()
-                # silence_logs: a cancelled tile makes a worker log a warning per task.
-                self.cluster = LocalCluster(n_workers=int(o.workers), threads_per_worker=1,
-                                            processes=True, dashboard_address=None,
-                                            silence_logs=logging.ERROR)
+                with _worker_environment():
+                    # silence_logs: a cancelled tile makes a worker log a warning per task.
+                    self.cluster = LocalCluster(n_workers=int(o.workers), threads_per_worker=1,
+                                                processes=True, dashboard_address=None,
+                                                silence_logs=logging.ERROR)
                 self.client = Client(self.cluster)
             self.in_flight = 2 * max(1, len(self.client.scheduler_info().get("workers", {})) or int(o.workers or 1))
         return self
@@ -130,3 +133,27 @@ def _use_python_for_workers() -> None:
 
     multiprocessing.set_executable(_python())
 
+
+
+@contextmanager
+def _worker_environment() -> Iterator[None]:
+    """Start local workers with the allocator settings of :mod:`core.heap`.
+
+    Dask's nannies put their ``pre-spawn-environ`` into this process's
+    environment before spawning a worker (its ``MALLOC_TRIM_THRESHOLD_`` of
+    64 kB would hand every freed temporary back to the kernel); ours replace
+    them, and this process's environment (QGIS's) is put back afterwards.
+    """
+    import dask
+
+    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}), **WORKER_ENVIRONMENT}
+    saved = {name: os.environ.get(name) for name in environ}
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+            yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value

@@ -1,0 +1,92 @@
+"""Reuse of freed memory between the pipeline's large temporaries (glibc).
+
+glibc's ``malloc`` serves every block above its mmap threshold (128 kB,
+raised at run time to at most 32 MB) with fresh pages from the kernel and
+returns them on ``free``. The pipeline's numpy temporaries are tens to
+hundreds of MB, so each step faults in and zeroes its memory again: on the
+500 m synthetic city at 1 m voxels that is 3.5 s of the kernel's time in a
+16 s run. With a high mmap threshold they come from the heap and reuse what
+the last step freed (14 s, 1.4 s in the kernel, the same peak memory).
+
+:func:`reusing_freed_memory` raises the thresholds while a reconstruction
+runs, then hands the freed memory back (``malloc_trim``) and restores
+glibc's fixed defaults, so that QGIS does not keep the run's peak.
+:data:`WORKER_ENVIRONMENT` does the same for worker processes (Dask), where
+the settings must be in place before the first allocation; one arena makes
+the tasks' threads use that heap too (a thread's own arena serves large
+blocks from mmap whatever the threshold). Elsewhere than glibc both do
+nothing.
+"""
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import sys
+import threading
+from contextlib import contextmanager
+from typing import Iterator
+
+#: mallopt parameters (malloc.h) and glibc's defaults.
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_DEFAULT_TRIM, _DEFAULT_MMAP = 128 * 1024, 128 * 1024
+#: Largest value mallopt takes (a C int): every numpy temporary of a run is below it.
+_HIGH = 2**31 - 1
+
+#: Environment for worker processes: the same settings, from their start.
+WORKER_ENVIRONMENT = {
+    "MALLOC_MMAP_THRESHOLD_": str(_HIGH),
+    "MALLOC_TRIM_THRESHOLD_": str(_HIGH),
+    "MALLOC_ARENA_MAX": "1",
+}
+
+_lock = threading.Lock()
+_depth = 0
+
+
+def _glibc() -> ctypes.CDLL | None:
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        libc.mallopt, libc.malloc_trim  # noqa: B018 (musl has neither)
+    except (OSError, AttributeError):
+        return None
+    return libc
+
+
+_LIBC = _glibc()
+
+
+@contextmanager
+def reusing_freed_memory() -> Iterator[None]:
+    """Keep freed memory for reuse inside the block; give it back after.
+
+    Nested and concurrent uses are counted: the settings change when the
+    first one enters and are restored when the last one leaves.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> with reusing_freed_memory():
+    ...     total = sum(float(np.ones(5_000_000).sum()) for _ in range(3))
+    >>> total
+    15000000.0
+    """
+    global _depth
+    if _LIBC is None:
+        yield
+        return
+    with _lock:
+        _depth += 1
+        if _depth == 1:
+            _LIBC.mallopt(_M_MMAP_THRESHOLD, _HIGH)
+            _LIBC.mallopt(_M_TRIM_THRESHOLD, _HIGH)
+    try:
+        yield
+    finally:
+        with _lock:
+            _depth -= 1
+            if _depth == 0:
+                _LIBC.mallopt(_M_MMAP_THRESHOLD, _DEFAULT_MMAP)
+                _LIBC.mallopt(_M_TRIM_THRESHOLD, _DEFAULT_TRIM)
+                _LIBC.malloc_trim(0)

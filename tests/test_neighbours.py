@@ -1,0 +1,45 @@
+"""Neighbour searches: answers independent of the search tree, against brute force."""
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from core.neighbours import nearest, nearest_distance, search_tree
+
+
+def _brute_force(data, at, k):
+    """The k nearest by (distance, x, y, z), from every distance."""
+    dist = np.linalg.norm(data[None, :, :] - at[:, None, :], axis=2)
+    order = np.array([np.lexsort((data[:, 2], data[:, 1], data[:, 0], row))[:k] for row in dist])
+    return np.take_along_axis(dist, order, axis=1), order
+
+
+def test_nearest_breaks_ties_by_coordinates_whatever_the_tree():
+    # A lattice: every query point (at a lattice point or a cell centre) has
+    # many neighbours at exactly the same distance.
+    axis = np.arange(6, dtype=float)
+    data = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
+    at = np.concatenate([data[::17], data[::23] + 0.5])
+    want_dist, want_idx = _brute_force(data, at, 6)
+    shuffled = np.random.default_rng(0).permutation(len(data))
+    for tree, points, index in ((search_tree(data), data, np.arange(len(data))),
+                                (cKDTree(data), data, np.arange(len(data))),
+                                (search_tree(data[shuffled]), data[shuffled], shuffled)):
+        dist, idx = nearest(tree, points, at, 6)
+        np.testing.assert_array_equal(index[idx], want_idx)
+        np.testing.assert_allclose(dist, want_dist, rtol=1e-15)
+
+
+def test_nearest_marks_missing_neighbours_beyond_the_bound():
+    data = np.array([[0.0, 0, 0], [1, 0, 0], [5, 0, 0]])
+    dist, idx = nearest(search_tree(data), data, np.array([[0.2, 0, 0]]), 3, upper=2.0)
+    assert idx[0].tolist() == [0, 1, 3]
+    assert dist[0, 2] == np.inf
+    assert dist[0, :2] == pytest.approx([0.2, 0.8])
+
+
+def test_nearest_distance_matches_brute_force():
+    rng = np.random.default_rng(1)
+    data, points = rng.random((500, 3)) * 10, rng.random((200, 3)) * 12
+    want = np.linalg.norm(points[:, None] - data[None], axis=2).min(axis=1)
+    np.testing.assert_allclose(nearest_distance(points, data), want, rtol=1e-14)
+    assert np.isnan(nearest_distance(points, data[:0])).all()
