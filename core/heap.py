@@ -89,4 +89,15 @@ def reusing_freed_memory() -> Iterator[None]:
             if _depth == 0:
                 _LIBC.mallopt(_M_MMAP_THRESHOLD, _DEFAULT_MMAP)
                 _LIBC.mallopt(_M_TRIM_THRESHOLD, _DEFAULT_TRIM)
-                _LIBC.malloc_trim(0)
+                hand_back_freed_memory()
+
+
+def hand_back_freed_memory() -> None:
+    """Give the freed memory kept so far back to the system.
+
+    Between the tiles of a run: what one tile freed is scattered over the
+    heap, and the next tile's arrays, of other sizes, would grow it further
+    (the 2 km city in 25 tiles peaked at 7.5 GB instead of 6.8 GB).
+    """
+    if _LIBC is not None:
+        _LIBC.malloc_trim(0)

@@ -31,9 +31,11 @@ def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
     """The ``k`` nearest data points of every point ``at``, ties broken by coordinates.
 
     A KD-tree returns points at equal distances in the order it visits them,
-    which depends on all the data it holds; ``spare`` more are asked for and
-    the ``k`` kept are the nearest, then the smallest in (x, y, z). Missing
-    neighbours (beyond ``upper``) have distance ``inf`` and index ``len(data)``.
+    which depends on all the data it holds: the ``k`` kept are the nearest,
+    then the smallest in (x, y, z). One more neighbour is asked for first;
+    where it is as near as the ``k``-th, more points may share that
+    distance, and ``spare`` more are asked for. Missing neighbours (beyond
+    ``upper``) have distance ``inf`` and index ``len(data)``.
 
     Examples
     --------
@@ -43,24 +45,38 @@ def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
     [[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
     """
     k = min(k, len(data))
-    m = min(k + spare, len(data))
+    out_dist, out_idx = _nearest_of(tree, data, at, k, min(k + 1, len(data)), upper)
+    if 0 < k < len(data):
+        # The (k+1)-th as near as the k-th (both found): the points at that
+        # distance may be more than the tree gave.
+        tied = np.flatnonzero((out_dist[:, k] == out_dist[:, k - 1]) & (out_dist[:, k] != np.inf))
+        out_dist, out_idx = out_dist[:, :k].copy(), out_idx[:, :k].copy()
+        if len(tied):
+            dist, idx = _nearest_of(tree, data, at[tied], k, min(k + spare, len(data)), upper)
+            out_dist[tied], out_idx[tied] = dist[:, :k], idx[:, :k]
+    return out_dist, out_idx
+
+
+def _nearest_of(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int, m: int,
+                upper: float) -> tuple[np.ndarray, np.ndarray]:
+    """The ``m`` nearest of every point ``at``, the first ``k`` ordered by
+    (distance, x, y, z) among them. Returns C-contiguous (Q, m) arrays."""
     dist, idx = tree.query(at, k=m, distance_upper_bound=upper, workers=-1)
     dist = dist.reshape(len(at), m)
     idx = idx.reshape(len(at), m)
     # The tree lists neighbours by increasing distance, the missing ones
     # (inf, len(data)) last. A row whose found distances strictly increase
     # is already in the order the sort below gives (the missing entries are
-    # all alike): only the other rows, usually few, are sorted. Copies keep
-    # the memory layout of the sorted arrays (einsum's rounding follows it).
+    # all alike): only the other rows, usually few, are sorted. The outputs
+    # keep the memory layout of the sorted arrays (einsum's rounding follows it).
     earlier, later = dist[:, :-1], dist[:, 1:]
     unsure = np.flatnonzero((~(later > earlier) & (later != np.inf)).any(axis=1))
-    out_dist, out_idx = dist[:, :k].copy(), idx[:, :k].copy()
     if len(unsure):
-        dist, idx = dist[unsure], idx[unsure]
-        order = by_value_then_coordinates(dist, idx, data, k)
-        out_dist[unsure] = np.take_along_axis(dist, order, axis=1)
-        out_idx[unsure] = np.take_along_axis(idx, order, axis=1)
-    return out_dist, out_idx
+        d, i = dist[unsure], idx[unsure]
+        order = by_value_then_coordinates(d, i, data, k)
+        dist[unsure, :k] = np.take_along_axis(d, order, axis=1)
+        idx[unsure, :k] = np.take_along_axis(i, order, axis=1)
+    return dist, idx
 
 
 def by_value_then_coordinates(value: np.ndarray, index: np.ndarray, data: np.ndarray, k: int) -> np.ndarray:

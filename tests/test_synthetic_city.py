@@ -1,8 +1,6 @@
 """Tests of the synthetic city: tiles of districts and residential houses, exact truth,
 a LAS file in acquisition order."""
 
-import time
-
 import laspy
 import numpy as np
 import pytest
@@ -53,9 +51,7 @@ def test_residential_flat_houses_have_textbook_volumes():
 def test_city_las_counts_classes_extent_and_order(tmp_path):
     city = city_mod.make_city(500.0, seed=1)
     path = tmp_path / "city.laz"
-    start = time.perf_counter()
     n = city.write_las(path, density=2.0)
-    assert time.perf_counter() - start < 30
     las = laspy.read(path)
     assert len(las.points) == n == las.header.point_count
     assert 2.0 * 500 * 500 * 0.95 < n < 2.0 * 500 * 500 * 1.3  # pulses + facade points
