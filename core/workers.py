@@ -17,7 +17,7 @@ from contextlib import contextmanager
 from typing import TYPE_CHECKING, Callable, Iterator
 
 from .errors import Cancelled, UrbanvoxError
-from .heap import WORKER_ENVIRONMENT, hand_back_freed_memory
+from .heap import WORKER_ENVIRONMENT
 
 if TYPE_CHECKING:
     from .tiles import Columns, TileJob, TileOptions, TilePiece
@@ -94,7 +94,6 @@ class TileRunner:
 
                 piece = self.run_tile(job, tile_progress, is_cancelled)
                 del job
-                hand_back_freed_memory()
             else:
                 from dask.distributed import wait
 
