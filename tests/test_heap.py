@@ -55,3 +55,13 @@ def test_worker_environment_is_scoped_to_the_cluster_start():
         assert spawn["MALLOC_TRIM_THRESHOLD_"] == heap.WORKER_ENVIRONMENT["MALLOC_TRIM_THRESHOLD_"]
         os.environ.update({k: str(v) for k, v in spawn.items()})  # what a nanny does before spawning
     assert dict(os.environ) == before
+
+
+def test_numpy_huge_page_requests_are_off_during_a_run_only():
+    before = heap._set_huge_pages(True)
+    try:
+        with heap.reusing_freed_memory():
+            assert heap._set_huge_pages(False) is False  # off inside (the call returns the setting it replaced)
+        assert heap._set_huge_pages(True) is True  # and back on after
+    finally:
+        heap._set_huge_pages(before)
