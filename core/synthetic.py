@@ -10,20 +10,10 @@ Terrain is the plane ``z = 400 + 0.02 * (x - x0) + 0.01 * (y - y0)``.
 Each building *part* is a rectangle (possibly rotated) with a flat, gable or hip roof
 whose eave is at the absolute height ``terrain(part centre) + h``.
 
-Truth (what :class:`BlockTruth` means)
---------------------------------------
-A *block* is a set of parts that touch or overlap; its solid is
-``{(x, y, z): (x, y) in F, terrain(x, y) <= z <= roof(x, y)}`` where ``F`` is the
-union of the part footprints clipped to the extent and ``roof`` the highest roof of
-the parts over ``(x, y)``. Everything below the terrain (STL walls and floors that
-reach under the ground) is not part of the truth. The roof is an upper envelope of
-planes, so it is split exactly into planar regions (shapely clipping) and each
-integral is ``area * value at centroid``: volumes, areas and surfaces are analytic,
-not sampled. ``surface_area`` is roofs + every vertical wall above the terrain:
-outer walls, the step walls between parts of different heights and, for the block
-cut by the border, the vertical cut face on the extent border (the clipped solid is
-closed there). Thresholds flagged by ``below_thresholds`` are
-:data:`DEFAULT_THRESHOLDS`.
+Truth
+-----
+See :mod:`core.synthetic_parts`: every block's volume, footprint, heights and
+surface are exact (:class:`~core.synthetic_parts.BlockTruth`).
 
 LAS content (LAS 1.4, point format 6, for both ``.las`` and ``.laz``)
 ---------------------------------------------------------------------
@@ -64,252 +54,14 @@ from pathlib import Path
 
 import numpy as np
 import shapely
-import shapely.affinity
 from shapely.geometry import Polygon, box
 
+# TERRAIN with the other constants: part of this module's interface.
+from .synthetic_parts import (DEFAULT_THRESHOLDS, ORIGIN, SIZE, TERRAIN, BlockTruth, Part,  # noqa: F401
+                              block_truth, part_triangles, terrain_local, wall_area)
+
 CRS_EPSG = 2056
-ORIGIN = (2_600_000.0, 1_200_000.0)
-SIZE = 250.0
-TERRAIN = (400.0, 0.02, 0.01)  # z = a + b * x_local + c * y_local
-DEFAULT_THRESHOLDS = {"min_height": 2.5, "min_footprint": 10.0, "min_volume": 20.0}
 WALL_DENSITY = 0.5  # facade points per m2 of wall: airborne scanners see walls poorly
-_EXTENT_LOCAL = box(0.0, 0.0, SIZE, SIZE)
-
-
-def _terrain_local(x, y):
-    return TERRAIN[0] + TERRAIN[1] * np.asarray(x, float) + TERRAIN[2] * np.asarray(y, float)
-
-
-def _cos_sin(deg: float) -> tuple[float, float]:
-    # exact values for right angles keep axis-aligned corners exactly on the 0.5 m grid
-    exact = {0: (1.0, 0.0), 90: (0.0, 1.0), 180: (-1.0, 0.0), 270: (0.0, -1.0)}
-    if deg % 90 == 0:
-        return exact[int(deg) % 360]
-    return float(np.cos(np.radians(deg))), float(np.sin(np.radians(deg)))
-
-
-@dataclass(frozen=True)
-class _Part:
-    """One building part: rectangle length (along the ridge u) x width (across, v)."""
-
-    block: str
-    cx: float
-    cy: float
-    length: float
-    width: float
-    h: float  # eave height above the terrain at the part centre
-    rise: float = 0.0  # ridge minus eave; 0 for flat roofs
-    roof: str = "flat"  # "flat" | "gable" | "hip"
-    angle: float = 0.0  # degrees from +x to the ridge direction
-    floor: bool = True  # STL: closed bottom (False = open like 3dfier)
-    winding: str = "ok"  # STL: "ok" | "inverted" | "mixed"
-
-    @property
-    def eave(self) -> float:
-        return float(_terrain_local(self.cx, self.cy)) + self.h
-
-    def to_uv(self, x, y):
-        c, s = _cos_sin(self.angle)
-        dx, dy = x - self.cx, y - self.cy
-        return dx * c + dy * s, -dx * s + dy * c
-
-    def to_xy(self, uv: np.ndarray) -> np.ndarray:
-        c, s = _cos_sin(self.angle)
-        u, v = uv[:, 0], uv[:, 1]
-        return np.column_stack([self.cx + u * c - v * s, self.cy + u * s + v * c])
-
-    def roof_uv(self, u, v):
-        hl, hw = self.length / 2, self.width / 2
-        if self.roof == "flat":
-            return np.full(np.shape(u), self.eave)
-        d = hw - np.abs(v)
-        if self.roof == "hip":
-            d = np.minimum(d, hl - np.abs(u))
-        return self.eave + self.rise / hw * d
-
-    def corners_uv(self) -> np.ndarray:
-        hl, hw = self.length / 2, self.width / 2
-        return np.array([(-hl, -hw), (hl, -hw), (hl, hw), (-hl, hw)])
-
-    def facets(self) -> list[tuple[np.ndarray, tuple[float, float, float]]]:
-        """Roof facets as (CCW xy polygon, plane (a, bx, by) with z = a + bx x + by y)."""
-        hl, hw, e = self.length / 2, self.width / 2, self.eave
-        if self.roof == "flat":
-            uv = [(self.corners_uv(), (e, 0.0, 0.0))]
-        else:
-            s = self.rise / hw
-            r = hl - hw if self.roof == "hip" else hl  # half ridge length
-            if self.roof == "hip" and r <= 0:
-                raise ValueError("a hip roof needs length > width")
-            uv = [(np.array([(-hl, -hw), (hl, -hw), (r, 0), (-r, 0)]), (e + s * hw, 0.0, s)),
-                  (np.array([(-r, 0), (r, 0), (hl, hw), (-hl, hw)]), (e + s * hw, 0.0, -s))]
-            if self.roof == "hip":
-                uv += [(np.array([(hl, -hw), (hl, hw), (r, 0)]), (e + s * hl, -s, 0.0)),
-                       (np.array([(-hl, hw), (-hl, -hw), (-r, 0)]), (e + s * hl, s, 0.0))]
-        c, sn = _cos_sin(self.angle)
-        out = []
-        for poly, (a, bu, bv) in uv:
-            bx, by = bu * c - bv * sn, bu * sn + bv * c  # plane gradient rotated to xy
-            out.append((self.to_xy(poly.astype(float)), (a - bx * self.cx - by * self.cy, bx, by)))
-        return out
-
-    def bbox(self) -> tuple[float, float, float, float]:
-        xy = self.to_xy(self.corners_uv())
-        return xy[:, 0].min(), xy[:, 1].min(), xy[:, 0].max(), xy[:, 1].max()
-
-
-@dataclass(frozen=True)
-class BlockTruth:
-    """One expected building block (touching parts merged); see the module docstring."""
-
-    name: str
-    volume: float
-    footprint_area: float
-    height: float
-    top_z: float
-    ground_z: float
-    surface_area: float
-    centroid: tuple[float, float]
-    footprint_wkt: str
-    below_thresholds: bool
-    on_border: bool
-
-
-def _plane(q, x, y):
-    return q[0] + q[1] * x + q[2] * y
-
-
-def _clip_positive(poly: np.ndarray, d) -> np.ndarray:
-    """Sutherland-Hodgman: the part of convex ``poly`` where plane ``d`` >= 0."""
-    val = _plane(d, poly[:, 0], poly[:, 1])
-    out = []
-    for i in range(len(poly)):
-        j = (i + 1) % len(poly)
-        if val[i] >= 0:
-            out.append(poly[i])
-        if (val[i] >= 0) != (val[j] >= 0):
-            t = val[i] / (val[i] - val[j])
-            out.append(poly[i] + t * (poly[j] - poly[i]))
-    return np.array(out)
-
-
-def _wall_area(d0, d1, length):
-    """Exact integral of |d| along a segment where d varies linearly from d0 to d1."""
-    a0, a1 = np.abs(d0), np.abs(d1)
-    same = d0 * d1 >= 0
-    den = np.where(same, 1.0, a0 + a1)
-    return length * np.where(same, (a0 + a1) / 2, (a0**2 + a1**2) / (2 * den))
-
-
-def _block_truth(name: str, parts: list[_Part]) -> tuple[BlockTruth, np.ndarray]:
-    """Exact truth of one block and its wall pieces (for facade points)."""
-    facets = []  # (shapely polygon clipped to the extent, plane)
-    for p in parts:
-        for xy, q in p.facets():
-            g = Polygon(xy).intersection(_EXTENT_LOCAL)
-            if g.area > 1e-9:
-                facets.append((g, q))
-    # upper envelope: facet i keeps the area where no other facet is higher
-    regions = []
-    for i, (gi, qi) in enumerate(facets):
-        r = gi
-        for j, (gj, qj) in enumerate(facets):
-            if j == i or gi.intersection(gj).area <= 1e-9:
-                continue
-            d = np.subtract(qj, qi)
-            if np.all(np.abs(d) < 1e-12):  # coplanar overlap belongs to the lower index
-                cut = gj if j < i else None
-            else:
-                c = _clip_positive(np.asarray(gj.exterior.coords)[:-1], d)
-                cut = Polygon(c) if len(c) >= 3 else None
-            if cut is not None and cut.area > 0:
-                r = r.difference(cut)
-        if r.geom_type not in ("Polygon", "MultiPolygon"):  # drop stray lines/points
-            r = shapely.union_all([g for g in shapely.get_parts(r) if g.geom_type == "Polygon"])
-        if r.area > 1e-12:
-            regions.append((r, qi))
-    foot = shapely.union_all([g for g, _ in facets])
-    fc = foot.centroid
-    volume = sum(r.area * _plane(q, r.centroid.x, r.centroid.y) for r, q in regions)
-    volume -= foot.area * float(_terrain_local(fc.x, fc.y))
-    roof_area = sum(r.area * np.sqrt(1 + q[1] ** 2 + q[2] ** 2) for r, q in regions)
-    # walls: node every region boundary, look at both sides of each segment
-    lines = shapely.union_all([r.boundary for r, _ in regions])
-    segs = []
-    for ln in getattr(lines, "geoms", [lines]):
-        c = np.asarray(ln.coords)
-        segs.append(np.hstack([c[:-1], c[1:]]))
-    segs = np.vstack(segs)
-    P, Q = segs[:, :2], segs[:, 2:]
-    length = np.hypot(*(Q - P).T)
-    P, Q, length = P[length > 1e-9], Q[length > 1e-9], length[length > 1e-9]
-    n = np.column_stack([-(Q - P)[:, 1], (Q - P)[:, 0]]) / length[:, None]
-    mid = (P + Q) / 2
-    zs = []  # z at P and Q seen from each side: a region's plane or the terrain
-    for side in (mid + 1e-6 * n, mid - 1e-6 * n):
-        zp, zq = _terrain_local(*P.T), _terrain_local(*Q.T)
-        for r, q in regions:
-            hit = shapely.contains_xy(r, side[:, 0], side[:, 1])
-            zp = np.where(hit, _plane(q, *P.T), zp)
-            zq = np.where(hit, _plane(q, *Q.T), zq)
-        zs.append((zp, zq))
-    (lp, lq), (rp, rq) = zs
-    wall = _wall_area(lp - rp, lq - rq, length)
-    surface = roof_area + wall.sum()
-    # wall pieces for facade points; skip the cut face on the border (not a real wall)
-    side_out = mid - 1e-6 * n
-    real = (wall > 1e-9) & shapely.contains_xy(_EXTENT_LOCAL, *(mid + 1e-6 * n).T) \
-        & shapely.contains_xy(_EXTENT_LOCAL, *side_out.T)
-    walls = np.column_stack([P, Q, np.minimum(lp, rp), np.minimum(lq, rq),
-                             np.maximum(lp, rp), np.maximum(lq, rq)])[real]
-    top = max(_plane(q, *np.asarray(g.exterior.coords).T).max() for g, q in facets)
-    hull = np.asarray(foot.convex_hull.exterior.coords)
-    ground = float(_terrain_local(*hull.T).min())  # planar terrain: lowest at a vertex
-    th = DEFAULT_THRESHOLDS
-    height = top - ground
-    world = shapely.affinity.translate(foot, *ORIGIN)
-    bt = BlockTruth(
-        name=name, volume=float(volume), footprint_area=float(foot.area),
-        height=float(height), top_z=float(top), ground_z=ground, surface_area=float(surface),
-        centroid=(ORIGIN[0] + fc.x, ORIGIN[1] + fc.y),
-        footprint_wkt=shapely.to_wkt(world, rounding_precision=-1),
-        below_thresholds=bool(height < th["min_height"] or foot.area < th["min_footprint"]
-                               or volume < th["min_volume"]),
-        on_border=bool(foot.intersects(_EXTENT_LOCAL.exterior)))
-    return bt, walls
-
-
-def _fan(poly: np.ndarray) -> np.ndarray:
-    """Fan-triangulate a convex 3D polygon (k, 3) -> (k-2, 3, 3), keeping its winding."""
-    return np.stack([np.stack([poly[0], poly[i], poly[i + 1]]) for i in range(1, len(poly) - 1)])
-
-
-def _part_triangles(p: _Part) -> np.ndarray:
-    """Walls + roof (+ floor) of one part, local coords, float64 (m, 3, 3)."""
-    corners = p.corners_uv()
-    base = float(_terrain_local(*p.to_xy(corners).T).min()) - 0.2  # walls reach below ground
-    walls, roof = [], []
-    for k in range(4):
-        a, b = corners[k], corners[(k + 1) % 4]
-        top = [a, b]
-        if p.roof == "gable" and a[0] == b[0]:  # gable end: include the ridge end
-            top = [a, np.array([a[0], 0.0]), b]
-        top = np.array(top, float)
-        ztop = p.roof_uv(top[:, 0], top[:, 1])
-        xy = p.to_xy(top)
-        ring = np.vstack([[*xy[0], base], [*xy[-1], base],
-                          np.column_stack([xy, ztop])[::-1]])
-        walls.append(_fan(ring))
-    for xy, q in p.facets():
-        roof.append(_fan(np.column_stack([xy, _plane(q, *xy.T)])))
-    if p.winding == "mixed":  # flip walls 1 and 3: inconsistent normals like broken exports
-        walls = [w[:, ::-1] if k % 2 else w for k, w in enumerate(walls)]
-    tris = walls + roof
-    if p.floor:
-        xy = p.to_xy(corners)[::-1]
-        tris.append(_fan(np.column_stack([xy, np.full(4, base)])))
-    tris = np.concatenate(tris)
-    return tris[:, ::-1] if p.winding == "inverted" else tris
 
 
 def _las_header(extent: tuple[float, float, float, float], crs: bool) -> "laspy.LasHeader":  # noqa: F821
@@ -358,13 +110,13 @@ class District:
     extent: tuple[float, float, float, float]
     blocks: list[BlockTruth]
     seed: int = 0
-    _parts: list[_Part] = field(default_factory=list, repr=False, compare=False)
+    _parts: list[Part] = field(default_factory=list, repr=False, compare=False)
     _trees: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)), repr=False, compare=False)
     _walls: np.ndarray = field(default_factory=lambda: np.zeros((0, 8)), repr=False, compare=False)
 
     def terrain_z(self, x, y) -> np.ndarray:
         """Terrain height at world ``x, y`` (vectorised)."""
-        return _terrain_local(np.asarray(x, float) - ORIGIN[0], np.asarray(y, float) - ORIGIN[1])
+        return terrain_local(np.asarray(x, float) - ORIGIN[0], np.asarray(y, float) - ORIGIN[1])
 
     def _roof_local(self, xl: np.ndarray, yl: np.ndarray) -> np.ndarray:
         """Highest roof over local ``xl, yl``; -inf where there is no building."""
@@ -388,7 +140,7 @@ class District:
         """Top of terrain and roofs at world ``x, y`` (a DSM without vegetation)."""
         xl = np.atleast_1d(np.asarray(x, float) - ORIGIN[0])
         yl = np.atleast_1d(np.asarray(y, float) - ORIGIN[1])
-        z = np.maximum(self._roof_local(xl.ravel(), yl.ravel()), _terrain_local(xl, yl).ravel())
+        z = np.maximum(self._roof_local(xl.ravel(), yl.ravel()), terrain_local(xl, yl).ravel())
         return z.reshape(np.broadcast(np.asarray(x), np.asarray(y)).shape)
 
     def write_las(self, path, *, density: float = 12.0, seed: int | None = None,
@@ -440,7 +192,7 @@ class District:
         n = rng.poisson(density * SIZE * SIZE)
         x, y = rng.random(n) * SIZE, rng.random(n) * SIZE
         roof = self._roof_local(x, y)
-        terrain = _terrain_local(x, y)
+        terrain = terrain_local(x, y)
         is_roof = np.isfinite(roof)
         z = np.where(is_roof, roof, terrain)
         cls = np.where(is_roof, 6, 2).astype(np.uint8)
@@ -450,12 +202,12 @@ class District:
             # over roofs the crown hides the roof; over the ground some pulses reach it
             keep = is_roof[hit] | (rng.random(hit.size) < 0.6)
             hit = hit[keep]
-            crown = float(_terrain_local(tx, ty)) + htop - 0.35 * r * d2[hit]
+            crown = float(terrain_local(tx, ty)) + htop - 0.35 * r * d2[hit]
             z[hit] = np.maximum(crown, z[hit] + 0.5)
             cls[hit] = 5
         # facade points on real walls
         w = self._walls
-        area = _wall_area(w[:, 6] - w[:, 4], w[:, 7] - w[:, 5], np.hypot(*(w[:, 2:4] - w[:, :2]).T))
+        area = wall_area(w[:, 6] - w[:, 4], w[:, 7] - w[:, 5], np.hypot(*(w[:, 2:4] - w[:, :2]).T))
         k = rng.poisson(WALL_DENSITY * area)
         wi = np.repeat(np.arange(len(w)), k)
         t, s = rng.random(wi.size), rng.random(wi.size)
@@ -467,23 +219,23 @@ class District:
         fz = lo + s * (hi - lo)
         # outliers: birds / multipath far above, low points far below the ground
         nx, ny = rng.random(36) * SIZE, rng.random(36) * SIZE
-        top = np.maximum(self._roof_local(nx[:24], ny[:24]), _terrain_local(nx[:24], ny[:24]))
+        top = np.maximum(self._roof_local(nx[:24], ny[:24]), terrain_local(nx[:24], ny[:24]))
         nz = np.concatenate([top + rng.uniform(40, 150, 24),
-                             _terrain_local(nx[24:], ny[24:]) - rng.uniform(2, 15, 12)])
+                             terrain_local(nx[24:], ny[24:]) - rng.uniform(2, 15, 12)])
         cx, cy = np.array([0, SIZE, SIZE, 0.0]), np.array([0, 0, SIZE, SIZE])
         X = np.concatenate([x, fx, nx, cx])
         Y = np.concatenate([y, fy, ny, cy])
-        Z = np.concatenate([z, fz, nz, _terrain_local(cx, cy)])
+        Z = np.concatenate([z, fz, nz, terrain_local(cx, cy)])
         C = np.concatenate([cls, np.full(fx.size, 6, np.uint8), np.full(36, 7, np.uint8),
                             np.full(4, 2, np.uint8)])
         Z = Z + rng.normal(0.0, 0.025, Z.size)
 
         return X, Y, Z, C
 
-    def _part_meshes(self) -> list[tuple[_Part, np.ndarray]]:
+    def _part_meshes(self) -> list[tuple[Part, np.ndarray]]:
         """Per part, its triangles in world coordinates (float64, before the STL cast)."""
         off = np.array([ORIGIN[0], ORIGIN[1], 0.0])
-        return [(p, _part_triangles(p) + off) for p in self._parts]
+        return [(p, part_triangles(p) + off) for p in self._parts]
 
     def write_stl(self, path) -> int:
         """Binary STL of the buildings only (float32 world coords); returns triangles."""
@@ -494,7 +246,7 @@ class District:
         """The terrain over the extent as a ``step`` m triangulated grid; returns triangles."""
         g = np.linspace(0.0, SIZE, int(round(SIZE / step)) + 1)
         gx, gy = np.meshgrid(g, g, indexing="ij")
-        v = np.stack([gx + ORIGIN[0], gy + ORIGIN[1], _terrain_local(gx, gy)], axis=-1)
+        v = np.stack([gx + ORIGIN[0], gy + ORIGIN[1], terrain_local(gx, gy)], axis=-1)
         a, b, c, d = v[:-1, :-1], v[1:, :-1], v[1:, 1:], v[:-1, 1:]
         tris = np.concatenate([np.stack([a, b, c], -2).reshape(-1, 3, 3),
                                np.stack([a, c, d], -2).reshape(-1, 3, 3)])  # CCW: normals up
@@ -505,9 +257,9 @@ class District:
         return [{**asdict(b), "centroid": list(b.centroid)} for b in self.blocks]
 
 
-def _special_parts() -> list[_Part]:
+def _special_parts() -> list[Part]:
     """The hand-placed buildings (local coords, corners on a 0.5 m grid)."""
-    P = _Part
+    P = Part
     parts = [
         P("rotated45", 50, 200, 16, 10, 9, angle=45),  # the paper's figure-5 building
         P("tower", 200, 200, 12, 12, 60, floor=False),
@@ -579,18 +331,18 @@ def make_district(seed: int = 0) -> District:
             if fp.intersects(taken):
                 continue
             long_x = L >= W
-            parts.append(_Part(f"box_{i}_{j}", x0 + L / 2, y0 + W / 2, max(L, W), min(L, W),
+            parts.append(Part(f"box_{i}_{j}", x0 + L / 2, y0 + W / 2, max(L, W), min(L, W),
                                float(h), float(rise) if gable else 0.0,
                                "gable" if gable else "flat", 0 if long_x else 90,
                                bool(floor), str(wind)))
     return _district_of(parts, seed, _TREES.copy())
 
 
-def _district_of(parts: list[_Part], seed: int, trees: np.ndarray) -> District:
+def _district_of(parts: list[Part], seed: int, trees: np.ndarray) -> District:
     """A 250 m tile from its parts: one truth block per block name, in order of first part."""
     blocks, walls = [], []
     for name in dict.fromkeys(p.block for p in parts):
-        bt, w = _block_truth(name, [p for p in parts if p.block == name])
+        bt, w = block_truth(name, [p for p in parts if p.block == name])
         blocks.append(bt)
         walls.append(w)
     extent = (ORIGIN[0], ORIGIN[1], ORIGIN[0] + SIZE, ORIGIN[1] + SIZE)

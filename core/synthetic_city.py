@@ -18,8 +18,8 @@ import numpy as np
 import shapely
 import shapely.affinity
 
-from .synthetic import (CRS_EPSG, DEFAULT_THRESHOLDS, ORIGIN, SIZE, TERRAIN, BlockTruth, District, _district_of,
-                        _las_header, _Part, make_district)
+from .synthetic import CRS_EPSG, District, _district_of, _las_header, make_district
+from .synthetic_parts import DEFAULT_THRESHOLDS, ORIGIN, SIZE, TERRAIN, BlockTruth, Part
 
 
 #: Pitch of the residential tiles' house slots (m): 10 x 10 houses per tile, at least
@@ -69,13 +69,13 @@ def make_residential(seed: int = 0) -> District:
             if kind == "hip" and L == W:
                 kind = "gable"
             name = f"house_{i}_{j}"
-            parts.append(_Part(name, x0 + L / 2, y0 + W / 2, max(L, W), min(L, W), float(h),
+            parts.append(Part(name, x0 + L / 2, y0 + W / 2, max(L, W), min(L, W), float(h),
                                float(rise) if kind != "flat" else 0.0, str(kind),
                                0 if long_x else 90, floor))
             free = HOUSE_SLOT * i + 3 + room - (x0 + L)  # slot room east of the house
             if annex and free >= 3.0:
                 a, wa = np.floor(min(free, 6.0) * 2) / 2, np.floor(W) / 2
-                parts.append(_Part(name, x0 + L + a / 2, y0 + wa / 2, a, wa,
+                parts.append(Part(name, x0 + L + a / 2, y0 + wa / 2, a, wa,
                                    float(max(3.0, np.floor(h) / 2))))
     corners = rng.choice((slots - 1) ** 2, 12, replace=False)
     trees = np.column_stack([HOUSE_SLOT * (1 + corners // (slots - 1)),

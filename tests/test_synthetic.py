@@ -147,7 +147,7 @@ def test_textbook_formulas(blocks):
 
 def test_union_volume_of_intersecting_parts(district, blocks):
     parts = [p for p in district._parts if p.block == "intersecting_boxes"]
-    alone = [syn._block_truth("x", [p])[0].volume for p in parts]
+    alone = [syn.block_truth("x", [p])[0].volume for p in parts]
     assert max(alone) < blocks["intersecting_boxes"].volume < sum(alone) - 100
 
 
@@ -253,7 +253,7 @@ def test_las_geometry(district, blocks, las):
     facade = dz < -0.5
     w = district._walls
     length = np.hypot(*(w[:, 2:4] - w[:, :2]).T)
-    expected = syn.WALL_DENSITY * syn._wall_area(w[:, 6] - w[:, 4], w[:, 7] - w[:, 5], length).sum()
+    expected = syn.WALL_DENSITY * syn.wall_area(w[:, 6] - w[:, 4], w[:, 7] - w[:, 5], length).sum()
     assert 0.8 * expected < facade.sum() < 1.1 * expected
     # vegetation over some roofs: holes in the roof
     v = cls == 5

@@ -1,6 +1,7 @@
 """Both algorithms run through ``processing.run`` on the synthetic district (in-process QGIS)."""
 
 import math
+from pathlib import Path
 
 import pytest
 from qgis_helpers import gpkg_outputs, gpkg_sink, read_layer
@@ -226,3 +227,43 @@ def test_outputs_load_styled_by_height_with_a_3d_renderer(processing, district, 
     footprints, _ = read_layer(gpkg, "footprints")
     style_footprints(footprints)
     assert footprints.renderer().symbol().color().alpha() < 255
+
+
+def test_two_workers_from_a_background_task_as_the_dialog_runs_it(processing, district, tmp_path, monkeypatch):
+    """The Processing dialog runs an algorithm in a task thread, in a process whose
+    ``sys.executable`` is QGIS itself: the Dask workers still start (with QGIS's Python)
+    and give the blocks of a run on one grid."""
+    import multiprocessing
+    import sys
+    import time
+
+    from qgis.core import (QgsApplication, QgsProcessingAlgRunnerTask, QgsProcessingContext,
+                           QgsProcessingFeedback)
+    from qgis.PyQt.QtCore import QCoreApplication
+
+    base = {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0}
+    single = processing.run("urbanvox:reconstructfrompointcloud", {**base, **gpkg_outputs(tmp_path / "single.gpkg")})
+    monkeypatch.setattr(sys, "executable", "/usr/bin/qgis")
+    started_with = []
+    set_executable = multiprocessing.set_executable
+    monkeypatch.setattr(multiprocessing, "set_executable",
+                        lambda path: (started_with.append(path), set_executable(path)))
+    gpkg = tmp_path / "tiled.gpkg"
+    alg = QgsApplication.processingRegistry().createAlgorithmById("urbanvox:reconstructfrompointcloud")
+    context, feedback = QgsProcessingContext(), QgsProcessingFeedback()
+    task = QgsProcessingAlgRunnerTask(alg, {**base, "TILE_SIZE": 100.0, "WORKERS": 2, **gpkg_outputs(gpkg)},
+                                      context, feedback)
+    done = {}
+    task.executed.connect(lambda ok, results: done.update(ok=ok, results=results))
+    QgsApplication.taskManager().addTask(task)
+    deadline = time.monotonic() + 600
+    while "ok" not in done and time.monotonic() < deadline:
+        QCoreApplication.processEvents()
+        time.sleep(0.05)
+    assert done.get("ok"), "the task failed or timed out"
+    assert started_with and Path(started_with[-1]).name.startswith("python")  # a local cluster, not QGIS
+    assert done["results"]["BLOCK_COUNT"] == single["BLOCK_COUNT"]
+    _, tiled_blocks = read_layer(gpkg, "blocks")
+    _, single_blocks = read_layer(tmp_path / "single.gpkg", "blocks")
+    assert sorted((f["block_id"], f["volume"]) for f in tiled_blocks) == \
+        sorted((f["block_id"], f["volume"]) for f in single_blocks)
