@@ -134,7 +134,6 @@ def _use_python_for_workers() -> None:
     multiprocessing.set_executable(_python())
 
 
-
 @contextmanager
 def _worker_environment() -> Iterator[None]:
     """Start local workers with the allocator settings of :mod:`core.heap`.
