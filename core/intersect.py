@@ -26,6 +26,7 @@ import numpy as np
 
 from .errors import Cancelled
 from .neighbours import search_tree
+from .parallel import map_blocks, row_blocks
 from .quality import best_split
 
 #: Quantiles of the faces' reach that split them into size classes searched apart.
@@ -324,12 +325,15 @@ def _crossing_quads(positions: np.ndarray, quads: np.ndarray, triangles: np.ndar
     first, second = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
     found = [np.zeros((0, 2), dtype=np.int64)]
     for qa, qb in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, seeds), chunk, is_cancelled):
-        # The pairs a few thousand at a time: the filters' temporaries stay
-        # in the cache (each pair is tested on its own, so the pairs found
-        # are the same).
-        for start in range(0, len(qa), _PAIR_BLOCK):
+
+        def test(block: slice, qa: np.ndarray = qa, qb: np.ndarray = qb) -> np.ndarray:
             # The four triangle pairs of each quad pair (two quads never share both triangles).
-            a = (2 * qa[start:start + _PAIR_BLOCK, None] + first).ravel()
-            b = (2 * qb[start:start + _PAIR_BLOCK, None] + second).ravel()
-            found.append(_crossing_of(a, b, tri, p, rows, in_focus))
+            a = (2 * qa[block, None] + first).ravel()
+            b = (2 * qb[block, None] + second).ravel()
+            return _crossing_of(a, b, tri, p, rows, in_focus)
+
+        # The pairs a few thousand at a time, on all cores: the filters'
+        # temporaries stay in the cache (each pair is tested on its own, so
+        # the pairs found are the same, in the same order).
+        found.extend(map_blocks(test, row_blocks(len(qa), _PAIR_BLOCK)))
     return tri[np.concatenate(found)]

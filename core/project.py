@@ -28,12 +28,15 @@ from scipy.spatial import cKDTree
 from .errors import Cancelled
 from .intersect import undo_crossings
 from .neighbours import by_value_then_coordinates, nearest, search_tree
+from .parallel import map_blocks, row_blocks
 from .quality import accept_moves, best_split
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
 
 #: Data points examined around each node, planes tried per node, points per plane.
 _NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
+#: Planes fitted per block of rows (temporaries of a few MB).
+_FIT_ROWS = 16384
 
 
 def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
@@ -101,15 +104,20 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
         The neighbourhood spans a plane (not a line or a point).
     """
     dist, idx = nearest(tree, data, at, k)
-    x = data[idx]
-    w = np.exp(-(dist / sigma) ** 2)
-    w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
-    centre = np.einsum("qk,qkc->qc", w, x)
-    d = x - centre[:, None, :]
-    cov = np.einsum("qk,qki,qkj->qij", w, d, d)
-    values, vectors = np.linalg.eigh(cov)
-    flat = values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
-    return centre, vectors, flat
+
+    def fit(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        x = data[idx[rows]]
+        w = np.exp(-(dist[rows] / sigma) ** 2)
+        w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
+        centre = np.einsum("qk,qkc->qc", w, x)
+        d = x - centre[:, None, :]
+        cov = np.einsum("qk,qki,qkj->qij", w, d, d)
+        values, vectors = np.linalg.eigh(cov)
+        return centre, vectors, values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
+
+    # Each plane is fitted from its own rows: blocks of rows run on all cores.
+    parts = map_blocks(fit, row_blocks(len(at), _FIT_ROWS)) or [fit(slice(0, 0))]
+    return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))
 
 
 def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, select: np.ndarray,
@@ -253,7 +261,8 @@ def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal:
     stay in the cache instead of streaming tables of millions through
     memory (and faulting fresh pages in), and each neighbour's row of
     ``data`` is read once for its three coordinates. The arithmetic is
-    elementwise, so the blocks give the numbers of one pass; it is that of
+    elementwise, so the blocks (run on all cores, :mod:`core.parallel`) give
+    the numbers of one pass; it is that of
     ``offset = data[near] - p``, ``along = np.einsum("qkc,qc->qk", offset,
     normal)`` (which, in numpy 1.24, adds the products of x and z first, then
     y's) and ``np.linalg.norm(offset - along * normal)``, one (Q, K) array
@@ -267,8 +276,8 @@ def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal:
     array([[ 5.,  0., inf]])
     """
     out = np.empty(near.shape)
-    for start in range(0, len(near), rows):
-        block = slice(start, start + rows)
+
+    def fill(block: slice) -> None:
         found = near[block] < len(data)
         x = data[np.where(found, near[block], 0)]
         q, n = p[block], normal[block]
@@ -279,4 +288,6 @@ def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal:
         distance = np.sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2])
         distance[~found] = np.inf
         out[block] = distance
+
+    map_blocks(fill, row_blocks(len(near), rows))
     return out

@@ -20,6 +20,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import Cancelled
+from .parallel import map_blocks, row_blocks
 
 #: Quality of a voxel face (a square split along a diagonal).
 SQUARE_QUALITY = float(4 * np.sqrt(3) * 0.5 / ((2 + np.sqrt(2)) * np.sqrt(2)))
@@ -84,10 +85,11 @@ def _split_quality(nodes: np.ndarray, quads: np.ndarray,
                    block: int = 16384) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Which split of each quad is better, its quality, and the quad's normal.
 
-    :func:`_split_quality_of` on ``block`` quads at a time: its some fifty
-    temporaries of one block stay in the cache, where on millions of quads
-    each would stream through memory (and fault fresh pages in). Every
-    number is computed elementwise, so the blocks give the numbers of one pass.
+    :func:`_split_quality_of` on ``block`` quads at a time, the blocks on all
+    cores (:mod:`core.parallel`): its some fifty temporaries of one block
+    stay in the cache, where on millions of quads each would stream through
+    memory (and fault fresh pages in). Every number is computed
+    elementwise, so the blocks give the numbers of one pass.
 
     Returns
     -------
@@ -102,9 +104,11 @@ def _split_quality(nodes: np.ndarray, quads: np.ndarray,
     use_second = np.empty(m, dtype=bool)
     quality = np.empty(m)
     normal = np.empty((m, 3))
-    for start in range(0, m, block):
-        part = slice(start, start + block)
+
+    def fill(part: slice) -> None:
         use_second[part], quality[part], normal[part] = _split_quality_of(nodes, quads[part])
+
+    map_blocks(fill, row_blocks(m, block))
     return use_second, quality, normal
 
 

@@ -55,7 +55,7 @@ class TileRunner:
                 self.client = Client(o.scheduler)
             else:
                 _use_python_for_workers()
-                with _worker_environment():
+                with _worker_environment(int(o.workers)):
                     # silence_logs: a cancelled tile makes a worker log a warning per task.
                     self.cluster = LocalCluster(n_workers=int(o.workers), threads_per_worker=1,
                                                 processes=True, dashboard_address=None,
@@ -135,8 +135,9 @@ def _use_python_for_workers() -> None:
 
 
 @contextmanager
-def _worker_environment() -> Iterator[None]:
-    """Start local workers with the allocator settings of :mod:`core.heap`.
+def _worker_environment(workers: int) -> Iterator[None]:
+    """Start local workers with the allocator settings of :mod:`core.heap`
+    and their share of the cores for row blocks (:mod:`core.parallel`).
 
     Dask's nannies put their ``pre-spawn-environ`` into this process's
     environment before spawning a worker (its ``MALLOC_TRIM_THRESHOLD_`` of
@@ -145,7 +146,9 @@ def _worker_environment() -> Iterator[None]:
     """
     import dask
 
-    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}), **WORKER_ENVIRONMENT}
+    share = {"URBANVOX_THREADS": str(max(1, (os.cpu_count() or 1) // max(1, workers)))}
+    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", default={}), **WORKER_ENVIRONMENT,
+               **share}
     saved = {name: os.environ.get(name) for name in environ}
     try:
         with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):

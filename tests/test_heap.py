@@ -48,10 +48,11 @@ def test_worker_environment_is_scoped_to_the_cluster_start():
     from core.workers import _worker_environment
 
     before = dict(os.environ)
-    with _worker_environment():
+    with _worker_environment(2):
         spawn = dask.config.get("distributed.nanny.pre-spawn-environ")
         assert spawn["MALLOC_ARENA_MAX"] == "1"
         assert spawn["MALLOC_TRIM_THRESHOLD_"] == heap.WORKER_ENVIRONMENT["MALLOC_TRIM_THRESHOLD_"]
+        assert int(spawn["URBANVOX_THREADS"]) == max(1, (os.cpu_count() or 1) // 2)
         os.environ.update({k: str(v) for k, v in spawn.items()})  # what a nanny does before spawning
     assert dict(os.environ) == before
 

@@ -1,0 +1,71 @@
+"""Row-independent numpy work on every core of the machine.
+
+numpy releases the GIL inside its loops over arrays of more than a few
+hundred elements, so threads run them side by side. The steps that work row
+by row (a plane fit per data point, a distance per node and neighbour, a
+crossing test per triangle pair) are cut into blocks of rows, and the
+blocks run on a pool of threads. Each row's result is computed from its row
+alone, by the same operations in the same order, so the results are those
+of one pass: only the time changes (MLS planes of the 500 m synthetic city
+at 1 m: 1.4-1.7 s -> 1.0 s on 2 cores).
+
+The pool has one thread per core, or ``URBANVOX_THREADS`` (Dask workers get
+their share of the cores, :mod:`core.workers`).
+"""
+from __future__ import annotations
+
+import os
+import threading
+from concurrent.futures import ThreadPoolExecutor
+from typing import Callable, Iterable, TypeVar
+
+T = TypeVar("T")
+R = TypeVar("R")
+
+_pool: ThreadPoolExecutor | None = None
+_lock = threading.Lock()
+
+
+def thread_count() -> int:
+    """Threads for row blocks: ``URBANVOX_THREADS`` if set, else the cores."""
+    try:
+        wanted = int(os.environ.get("URBANVOX_THREADS", "0"))
+    except ValueError:
+        wanted = 0
+    return max(1, wanted or os.cpu_count() or 1)
+
+
+def map_blocks(func: Callable[[T], R], blocks: Iterable[T]) -> list[R]:
+    """``[func(block) for block in blocks]``, the blocks run on the threads.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.arange(10.0)
+    >>> np.concatenate(map_blocks(lambda rows: x[rows] ** 2, row_blocks(10, 4))).tolist()[-3:]
+    [49.0, 64.0, 81.0]
+    """
+    blocks = list(blocks)
+    threads = thread_count()
+    if threads == 1 or len(blocks) < 2:
+        return [func(block) for block in blocks]
+    return list(_executor(threads).map(func, blocks))
+
+
+def row_blocks(n: int, size: int) -> list[slice]:
+    """Consecutive slices of at most ``size`` rows covering ``range(n)``.
+
+    Examples
+    --------
+    >>> row_blocks(10, 4)
+    [slice(0, 4, None), slice(4, 8, None), slice(8, 10, None)]
+    """
+    return [slice(start, min(start + size, n)) for start in range(0, n, size)]
+
+
+def _executor(threads: int) -> ThreadPoolExecutor:
+    global _pool
+    with _lock:
+        if _pool is None or _pool._max_workers != threads:
+            _pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox")
+        return _pool

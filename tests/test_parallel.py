@@ -1,0 +1,41 @@
+"""Row blocks on threads: the results of one pass, in order."""
+import numpy as np
+import pytest
+
+from core import parallel
+from core.parallel import map_blocks, row_blocks
+
+
+def test_blocks_cover_the_rows_once_in_order():
+    blocks = row_blocks(10_001, 1000)
+    assert len(blocks) == 11 and blocks[0].start == 0 and blocks[-1].stop == 10_001
+    assert all(a.stop == b.start for a, b in zip(blocks, blocks[1:]))
+    assert row_blocks(0, 10) == []
+
+
+def test_threads_give_the_numbers_of_one_pass(monkeypatch):
+    rng = np.random.default_rng(0)
+    x = rng.random((100_000, 12, 3))
+    w = rng.random((100_000, 12))
+
+    def centre(rows):
+        return np.einsum("qk,qkc->qc", w[rows], x[rows])
+
+    one_pass = centre(slice(None))
+    for threads in ("1", "2", "3"):
+        monkeypatch.setenv("URBANVOX_THREADS", threads)
+        assert parallel.thread_count() == int(threads)
+        blocks = np.concatenate(map_blocks(centre, row_blocks(len(x), 4096)))
+        assert np.array_equal(blocks, one_pass)
+
+
+def test_a_failing_block_raises_in_the_caller(monkeypatch):
+    monkeypatch.setenv("URBANVOX_THREADS", "2")
+
+    def fail(rows):
+        if rows.start == 4:
+            raise ValueError("block 2")
+        return rows.start
+
+    with pytest.raises(ValueError, match="block 2"):
+        map_blocks(fail, row_blocks(10, 4))
