@@ -28,7 +28,6 @@ import numpy as np
 from scipy import sparse
 
 from .errors import Cancelled
-from .parallel import map_blocks
 from .quality import FaceState, accept_moves
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel
 
@@ -149,10 +148,8 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     """
     a, b = model.regions[:, 0], model.regions[:, 1]
     n = len(model.nodes)
-    # The two operators are built side by side (sparse products release the GIL).
-    from_blocks, from_ground = (op for op, _ in map_blocks(
-        lambda quads: catmull_clark_operator(quads, n),
-        [model.quads[(a > 0) | (b > 0)], model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)]]))
+    from_blocks, _ = catmull_clark_operator(model.quads[(a > 0) | (b > 0)], n)
+    from_ground, _ = catmull_clark_operator(model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)], n)
     # Each node follows one surface: its block's, else the ground's.
     W = sparse.diags(roles.on_block.astype(float)) @ from_blocks \
         + sparse.diags((~roles.on_block).astype(float)) @ from_ground
