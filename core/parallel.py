@@ -22,7 +22,7 @@ from typing import Callable, Iterable, TypeVar
 T = TypeVar("T")
 R = TypeVar("R")
 
-_pool: ThreadPoolExecutor | None = None
+_pool: tuple[int, ThreadPoolExecutor] | None = None  # (threads, pool)
 _lock = threading.Lock()
 
 
@@ -64,8 +64,11 @@ def row_blocks(n: int, size: int) -> list[slice]:
 
 
 def _executor(threads: int) -> ThreadPoolExecutor:
+    """The pool of ``threads`` threads, made once (again if the count changes)."""
     global _pool
     with _lock:
-        if _pool is None or _pool._max_workers != threads:
-            _pool = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox")
-        return _pool
+        if _pool is None or _pool[0] != threads:
+            if _pool is not None:
+                _pool[1].shutdown(wait=False)
+            _pool = (threads, ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox"))
+        return _pool[1]
