@@ -3,8 +3,8 @@
 The paper's advancing front over face-adjacent building cells is a
 connected-component labelling with 6-connectivity, done here by
 ``scipy.ndimage.label``. Maximum height, footprint ("ground surface") and
-volume per block come from ``bincount`` over the labelled voxels, and small
-blocks are dropped by thresholds on them.
+volume per block come from ``bincount`` over the labelled voxels and
+``find_objects``, and small blocks are dropped by thresholds on them.
 """
 from __future__ import annotations
 
@@ -81,24 +81,23 @@ def block_attributes(blocks: np.ndarray, n: int, grid: VoxelGrid) -> BlockTable:
     >>> t.volume, t.footprint_area, t.height
     (array([24.]), array([8.]), array([4.]))
     """
-    nx, ny, nz = grid.shape
+    nz = grid.shape[2]
     h = grid.voxel_size
-    i, j, k = np.nonzero(blocks)
-    ids = blocks[i, j, k]
+    ids, keys = _voxels_and_columns(blocks)
     n_voxels = np.bincount(ids, minlength=n + 1)[1:]
-    columns = np.bincount(_columns(ids, i, j, nx, ny)[:, 0], minlength=n + 1)[1:]
-    lowest = np.full(n + 1, nz, dtype=np.int64)
-    highest = np.full(n + 1, -1, dtype=np.int64)
-    np.minimum.at(lowest, ids, k)
-    np.maximum.at(highest, ids, k)
+    columns = np.bincount(keys // (grid.shape[0] * grid.shape[1]), minlength=n + 1)[1:]
+    # One C pass gives every block's bounding box (None for an absent id).
+    boxes = ndimage.find_objects(blocks, max_label=n)
+    lowest = np.array([nz if box is None else box[2].start for box in boxes], dtype=np.int64)
+    highest = np.array([-1 if box is None else box[2].stop - 1 for box in boxes], dtype=np.int64)
     z0 = grid.origin[2]
     return BlockTable(
         block_id=np.arange(1, n + 1, dtype=np.int64),
         n_voxels=n_voxels.astype(np.int64),
         volume=n_voxels * h**3,
         footprint_area=columns * h**2,
-        ground_z=z0 + lowest[1:] * h,
-        top_z=z0 + (highest[1:] + 1) * h,
+        ground_z=z0 + lowest * h,
+        top_z=z0 + (highest + 1) * h,
     )
 
 
@@ -112,13 +111,26 @@ def block_columns(blocks: np.ndarray) -> np.ndarray:
     [[1, 0, 0], [2, 1, 0]]
     """
     nx, ny, _ = blocks.shape
-    i, j, k = np.nonzero(blocks)
-    return _columns(blocks[i, j, k], i, j, nx, ny)
-
-
-def _columns(ids: np.ndarray, i: np.ndarray, j: np.ndarray, nx: int, ny: int) -> np.ndarray:
-    key = np.unique(ids.astype(np.int64) * (nx * ny) + i * ny + j)
+    key = _voxels_and_columns(blocks)[1]
     return np.column_stack([key // (nx * ny), (key % (nx * ny)) // ny, key % ny])
+
+
+def _voxels_and_columns(blocks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The block id of every block voxel (C order), and the sorted distinct
+    ``id * nx * ny + i * ny + j`` of the columns each block covers.
+
+    In C order a column's voxels are consecutive, so a block's voxels in a
+    column are one run unless another block lies between them: the runs'
+    keys, a few per column, are all that is sorted.
+    """
+    nx, ny, nz = blocks.shape
+    flat = blocks.reshape(-1)
+    where = np.flatnonzero(flat)
+    ids = flat[where].astype(np.int64)
+    key = ids * (nx * ny) + where // nz
+    run_start = np.ones(len(key), dtype=bool)
+    run_start[1:] = key[1:] != key[:-1]
+    return ids, np.unique(key[run_start])
 
 
 def small_blocks(table: BlockTable, min_height: float, min_footprint: float,
@@ -136,14 +148,21 @@ def small_blocks(table: BlockTable, min_height: float, min_footprint: float,
             | (table.volume < min_volume))
 
 
-def drop_blocks(labels: np.ndarray, blocks: np.ndarray, drop_ids: np.ndarray) -> None:
+def drop_blocks(labels: np.ndarray, blocks: np.ndarray, drop_ids: np.ndarray) -> np.ndarray:
     """Turn the voxels of the given blocks into air, in place.
 
     A dropped block touches air (every block has an outer surface), so the air
     stays one volume.
+
+    Returns
+    -------
+    ndarray of int64
+        Flat indices of the voxels turned into air.
     """
     if len(drop_ids) == 0:
-        return
+        return np.zeros(0, dtype=np.int64)
     mask = np.zeros(int(blocks.max()) + 1, dtype=bool)
     mask[drop_ids] = True
-    labels[mask[blocks]] = AIR
+    dropped = mask[blocks]
+    labels[dropped] = AIR
+    return np.flatnonzero(dropped)

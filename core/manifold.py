@@ -26,6 +26,7 @@ import numpy as np
 
 from .classify import AIR, BUILDING, enclose_air
 from .errors import Cancelled
+from .parallel import map_blocks, row_blocks
 
 #: Corners of a 2 x 2 x 2 cube, bit b of a cube code is corner CORNERS[b].
 CORNERS = np.array(list(itertools.product((0, 1), repeat=3)), dtype=np.int64)
@@ -74,7 +75,8 @@ def repair_height_field(top_k: np.ndarray, max_iterations: int = 100) -> np.ndar
 
 
 def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
-                       is_cancelled: Callable[[], bool] | None = None) -> int:
+                       is_cancelled: Callable[[], bool] | None = None,
+                       changed: np.ndarray | None = None) -> int:
     """Turn air voxels into building until buildings and solids are well-composed.
 
     Every 2 x 2 x 2 cube of the grid is classified at once through its label
@@ -84,6 +86,16 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
 
     Works in place on ``labels`` (``GROUND``/``BUILDING``/``AIR``); the ground
     must already be a repaired height field.
+
+    Parameters
+    ----------
+    labels : ndarray of uint8 (nx, ny, nz)
+    max_iterations : int
+    is_cancelled : callable, optional
+    changed : ndarray of int, optional
+        Flat indices of the only voxels changed since ``labels`` was last
+        made well-composed: only the cubes around them are looked at first,
+        instead of every cube of the grid (the result is the same).
 
     Returns
     -------
@@ -105,7 +117,7 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
     flat = labels.reshape(-1)  # a view: writes go to labels
     stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
     corner_offset = CORNERS @ stride
-    origins = _all_critical_cubes(labels)
+    origins = _all_critical_cubes(labels) if changed is None else _cubes_around(changed, shape, stride)
     added = 0
     filled_since_enclosing = False
     for _ in range(max_iterations):
@@ -140,14 +152,26 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
 
 
 def _all_critical_cubes(labels: np.ndarray) -> np.ndarray:
-    """Flat index (of the lowest corner) of every critical cube of the grid."""
+    """Flat index (of the lowest corner) of every critical cube of the grid, ascending."""
     nx, ny, nz = labels.shape
-    code = np.zeros((nx - 1, ny - 1, nz - 1), dtype=np.int16)
-    for bit, (di, dj, dk) in enumerate(CORNERS):
-        digit = labels[di:nx - 1 + di, dj:ny - 1 + dj, dk:nz - 1 + dk].astype(np.int16) - 1
-        code += digit * np.int16(3**bit)
-    i, j, k = np.nonzero(FIX_TABLE[code] >= 0)
-    return (i.astype(np.int64) * ny + j) * nz + k
+    weights = [np.int16(3**bit) for bit in range(8)]
+
+    def critical_in(rows: slice) -> np.ndarray:
+        # The cubes whose lowest corner is in these rows of i: their codes
+        # sum label * 3^bit (the table is indexed to take the label - 1
+        # digits' offset), in int16 temporaries a few MB large.
+        code = np.zeros((rows.stop - rows.start, ny - 1, nz - 1), dtype=np.int16)
+        term = np.empty_like(code)
+        for bit, (di, dj, dk) in enumerate(CORNERS):
+            corner = labels[rows.start + di:rows.stop + di, dj:ny - 1 + dj, dk:nz - 1 + dk]
+            np.multiply(corner, weights[bit], out=term, dtype=np.int16, casting="unsafe")
+            code += term
+        i, j, k = np.nonzero(_CRITICAL_BY_LABEL_SUM[code])
+        return ((i.astype(np.int64) + rows.start) * ny + j) * nz + k
+
+    plane = max(1, (ny - 1) * (nz - 1))
+    found = map_blocks(critical_in, row_blocks(nx - 1, max(1, _SLAB_CUBES // plane)))
+    return np.concatenate(found) if found else np.zeros(0, dtype=np.int64)
 
 
 def _cubes_around(cells: np.ndarray, shape: np.ndarray, stride: np.ndarray) -> np.ndarray:
@@ -209,3 +233,8 @@ def _fix_table() -> np.ndarray:
 
 #: Corner to fill for every cube pattern (-1: the cube is well-composed).
 FIX_TABLE = _fix_table()
+#: Whether a cube is critical, by the sum of its corner labels times 3^bit:
+#: that sum minus 3280 (the sum of the 3^bit) is the pattern code.
+_CRITICAL_BY_LABEL_SUM = FIX_TABLE[np.arange(3 * 3280 + 1) - 3280] >= 0
+#: Cubes classified at a time, per thread (two int16 arrays of this size).
+_SLAB_CUBES = 1 << 20

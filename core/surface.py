@@ -208,14 +208,15 @@ class SurfaceModel:
 
 
 def _unique_nodes(flat: np.ndarray, n_lattice: int) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(flat, return_inverse=True)`` for lattice node numbers below ``n_lattice``.
+    """``np.unique(flat, return_inverse=True)`` for lattice node numbers below ``n_lattice``
+    (the inverse in the shape of ``flat``).
 
     A mark per lattice node and a running count give the same sorted nodes
     and ranks in linear time. They cost 5 bytes per lattice node (about the
     region volume's 4 per voxel): on a lattice much larger than the number
     of corners, or a huge one, the sort is kept.
     """
-    if n_lattice > min(16 * len(flat), 400_000_000):
+    if n_lattice > min(16 * flat.size, 400_000_000):
         return np.unique(flat, return_inverse=True)
     used = np.zeros(n_lattice, dtype=bool)
     used[flat] = True
