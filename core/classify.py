@@ -33,6 +33,8 @@ UNASSIGNED, GROUND, BUILDING, AIR = 0, 1, 2, 3
 
 #: Face adjacency (6-connectivity) in 3-D, as the paper's advancing fronts use.
 FACE_ADJACENCY = ndimage.generate_binary_structure(3, 1)
+#: Above one cell in this many under cover, :func:`enclose_air` labels the whole grid.
+_MOSTLY_COVERED = 16
 
 
 def classify_voxels(grid: VoxelGrid, ground_top_k: np.ndarray, building_cells: np.ndarray,
@@ -109,6 +111,13 @@ def enclose_air(labels: np.ndarray) -> int:
     row and crosses faces only; every cell it does not reach is enclosed by
     building surfaces and becomes building. Works in place.
 
+    An air cell with no solid above it in its column is reached straight
+    from the top row: only the air *under* something (eaves, bridges, holes
+    in roofs) can be enclosed. Those cells, a small part of the grid, are
+    grouped by their face adjacencies, and a group is reached when one of
+    its cells has a face against open air. That is a labelling of all air
+    cells (the front) made on the few that can be cut off.
+
     Returns
     -------
     int
@@ -120,15 +129,55 @@ def enclose_air(labels: np.ndarray) -> int:
     >>> enclose_air(lab), lab[1, 1, 0] == BUILDING
     (1, True)
     """
-    # A connected-component labelling finds the same front in C.
-    components, _ = ndimage.label(labels == AIR, structure=FACE_ADJACENCY)
-    top_ids = np.unique(components[:, :, -1])
-    reached = np.zeros(int(components.max()) + 1, dtype=bool)
-    reached[top_ids[top_ids > 0]] = True
-    enclosed = (components > 0) & ~reached[components]
-    del components
-    labels[enclosed] = BUILDING
-    return int(np.count_nonzero(enclosed))
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    nx, ny, nz = labels.shape
+    air = labels == AIR
+    # Air below the highest solid cell of its column.
+    solid = ~air
+    top = nz - np.argmax(solid[:, :, ::-1], axis=2)
+    top[~solid.any(axis=2)] = 0
+    del solid
+    covered = air & (np.arange(nz) < top[:, :, None])
+    cells = np.flatnonzero(covered)
+    if len(cells) == 0:
+        return 0
+    if len(cells) > labels.size // _MOSTLY_COVERED:
+        # Hollow models (STL buildings are air inside their roofs): a
+        # labelling of the grid costs less than a graph of that many cells.
+        del covered, cells
+        components, _ = ndimage.label(air, structure=FACE_ADJACENCY)
+        top_ids = np.unique(components[:, :, -1])
+        reached = np.zeros(int(components.max()) + 1, dtype=bool)
+        reached[top_ids[top_ids > 0]] = True
+        enclosed_mask = (components > 0) & ~reached[components]
+        del components
+        labels[enclosed_mask] = BUILDING
+        return int(np.count_nonzero(enclosed_mask))
+    flat_air, flat_covered = air.reshape(-1), covered.reshape(-1)
+    ijk = np.unravel_index(cells, labels.shape)
+    stride = (ny * nz, nz, 1)
+    pairs, reached_cells = [], []
+    for axis in range(3):
+        for step in (-1, 1):
+            inside = (ijk[axis] + step >= 0) & (ijk[axis] + step < labels.shape[axis])
+            cell = np.flatnonzero(inside)
+            neighbour = cells[cell] + step * stride[axis]
+            open_air = flat_air[neighbour] & ~flat_covered[neighbour]
+            reached_cells.append(cell[open_air])
+            if step > 0:  # each adjacency once
+                both = flat_covered[neighbour]
+                pairs.append(np.column_stack([cell[both], np.searchsorted(cells, neighbour[both])]))
+    edges = np.concatenate(pairs)
+    graph = coo_matrix((np.ones(len(edges), dtype=np.int8), (edges[:, 0], edges[:, 1])),
+                       shape=(len(cells), len(cells)))
+    _, group = connected_components(graph, directed=False)
+    reached = np.zeros(group.max() + 1, dtype=bool)
+    reached[group[np.concatenate(reached_cells)]] = True
+    enclosed = cells[~reached[group]]
+    labels[np.unravel_index(enclosed, labels.shape)] = BUILDING
+    return int(len(enclosed))
 
 
 def roof_hole_columns(building_columns: np.ndarray, ground_columns: np.ndarray,

@@ -75,8 +75,7 @@ def repair_height_field(top_k: np.ndarray, max_iterations: int = 100) -> np.ndar
 
 
 def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
-                       is_cancelled: Callable[[], bool] | None = None,
-                       changed: np.ndarray | None = None) -> int:
+                       is_cancelled: Callable[[], bool] | None = None) -> int:
     """Turn air voxels into building until buildings and solids are well-composed.
 
     Every 2 x 2 x 2 cube of the grid is classified at once through its label
@@ -86,16 +85,6 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
 
     Works in place on ``labels`` (``GROUND``/``BUILDING``/``AIR``); the ground
     must already be a repaired height field.
-
-    Parameters
-    ----------
-    labels : ndarray of uint8 (nx, ny, nz)
-    max_iterations : int
-    is_cancelled : callable, optional
-    changed : ndarray of int, optional
-        Flat indices of the only voxels changed since ``labels`` was last
-        made well-composed: only the cubes around them are looked at first,
-        instead of every cube of the grid (the result is the same).
 
     Returns
     -------
@@ -117,7 +106,7 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
     flat = labels.reshape(-1)  # a view: writes go to labels
     stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
     corner_offset = CORNERS @ stride
-    origins = _all_critical_cubes(labels) if changed is None else _cubes_around(changed, shape, stride)
+    origins = _all_critical_cubes(labels)
     added = 0
     filled_since_enclosing = False
     for _ in range(max_iterations):

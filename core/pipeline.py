@@ -522,8 +522,7 @@ def _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warn
 def _blocks_above_thresholds(labels, grid, thresholds, is_cancelled):
     """Label blocks, drop the small ones, repeat until nothing is dropped.
 
-    ``labels`` must be well-composed: only the dropped voxels' surroundings
-    are repaired after a drop.
+    ``labels`` must be well-composed; they stay so.
     """
     total_dropped = 0
     while True:
@@ -534,9 +533,8 @@ def _blocks_above_thresholds(labels, grid, thresholds, is_cancelled):
         small = small_blocks(table, *thresholds)
         if not small.any():
             return blocks, table, total_dropped
-        dropped = drop_blocks(labels, blocks, table.block_id[small])
+        drop_blocks(labels, blocks, table.block_id[small])  # leaves the labels well-composed
         total_dropped += int(small.sum())
-        make_well_composed(labels, is_cancelled=is_cancelled, changed=dropped)
 
 
 def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):

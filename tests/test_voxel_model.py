@@ -222,3 +222,81 @@ def test_airborne_walls_are_supported_by_the_roof_edge_above():
     g, labels = model()
     assert eliminate_unsupported(labels, g, roof, extrude_roofs=False) > 0
     assert (labels[2, :, 1:5] == AIR).all()
+
+
+def box_city(rng, shape):
+    """Ground, then random building and air boxes: eaves, bridges, sealed rooms."""
+    labels = np.full(shape, AIR, np.uint8)
+    labels[:, :, 0] = GROUND
+    for _ in range(rng.integers(1, 12)):
+        lo = rng.integers(0, shape)
+        hi = lo + rng.integers(1, 5, 3)
+        labels[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]] = rng.choice([BUILDING, AIR], p=[0.8, 0.2])
+    return labels
+
+
+def test_enclosed_air_is_what_a_front_from_the_top_row_misses():
+    import core.classify as classify
+
+    rng = np.random.default_rng(7)
+    hollow = 0
+    for _ in range(400):
+        labels = box_city(rng, tuple(rng.integers(2, 12, 3)))
+        # Reference: the paper's front, as a labelling of all the air.
+        components, _ = ndimage.label(labels == AIR, structure=ndimage.generate_binary_structure(3, 1))
+        top = np.unique(components[:, :, -1])
+        enclosed = (components > 0) & ~np.isin(components, top[top > 0])
+        covered = np.logical_or.accumulate(labels[:, :, ::-1] != AIR, axis=2)[:, :, ::-1] & (labels == AIR)
+        hollow += np.count_nonzero(covered) > labels.size // classify._MOSTLY_COVERED
+        expected = np.where(enclosed, BUILDING, labels)
+        assert classify.enclose_air(labels) == np.count_nonzero(enclosed)
+        assert np.array_equal(labels, expected)
+    assert 50 < hollow < 350  # both ways of finding the pockets were taken
+
+
+def test_critical_cubes_in_slabs_are_those_of_the_whole_grid(monkeypatch):
+    import core.manifold as manifold
+
+    rng = np.random.default_rng(3)
+    labels = rng.integers(GROUND, AIR + 1, size=(9, 7, 6)).astype(np.uint8)
+    # Reference: each cube's pattern code from its corners' label - 1 digits.
+    code = sum((labels[di:di + 8, dj:dj + 6, dk:dk + 5].astype(int) - 1) * 3**bit
+               for bit, (di, dj, dk) in enumerate(manifold.CORNERS))
+    expected = np.flatnonzero(np.pad(manifold.FIX_TABLE[code] >= 0, ((0, 1), (0, 1), (0, 1))))
+    assert len(expected) > 10
+    monkeypatch.setattr(manifold, "_SLAB_CUBES", 60)  # two planes of cubes per slab
+    assert np.array_equal(manifold._all_critical_cubes(labels), expected)
+
+
+def test_dropping_blocks_keeps_the_labels_well_composed():
+    import core.manifold as manifold
+    from core.blocks import drop_blocks
+
+    for seed in range(6):
+        _, labels = random_model(seed, shape=(30, 26, 12))
+        blocks, n = label_blocks(labels)
+        assert n > 4
+        dropped = np.arange(1, n + 1, 2)  # any blocks
+        drop_blocks(labels, blocks, dropped)
+        assert np.array_equal(np.unique(blocks[labels == BUILDING]), np.arange(2, n + 1, 2))
+        assert len(manifold._all_critical_cubes(labels)) == 0
+
+
+def test_block_attributes_match_a_count_per_block():
+    g, labels = random_model(2, shape=(20, 18, 12))
+    # A C-shaped block around a floating one: column (3, 3) holds A, B, A.
+    labels[1:6, 1:6, 1:10] = AIR
+    labels[3:6, 3, 1] = BUILDING
+    labels[5, 3, 1:9] = BUILDING
+    labels[2:6, 2:5, 8] = BUILDING
+    labels[3, 3, 3:6] = BUILDING
+    blocks, n = label_blocks(labels)
+    t = block_attributes(blocks, n, g)
+    for b in range(1, n + 1):
+        i, j, k = np.nonzero(blocks == b)
+        assert t.n_voxels[b - 1] == len(i)
+        assert t.footprint_area[b - 1] == len(set(zip(i.tolist(), j.tolist()))) * g.voxel_size**2
+        assert t.ground_z[b - 1] == g.origin[2] + k.min() * g.voxel_size
+        assert t.top_z[b - 1] == g.origin[2] + (k.max() + 1) * g.voxel_size
+    column = blocks[3, 3][blocks[3, 3] > 0]
+    assert column[0] == column[-1] != column[3]  # the interleaved column is there
