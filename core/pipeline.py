@@ -32,7 +32,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .blocks import BlockTable, block_attributes, block_columns, drop_blocks, label_blocks, small_blocks
+from .blocks import (BlockTable, block_attributes, block_columns, drop_blocks, keep_blocks, label_blocks,
+                     small_blocks)
 from .classify import classify_voxels, roof_hole_columns
 from .clusters import merge as merge_clusters
 from .clusters import split_clusters
@@ -520,21 +521,21 @@ def _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warn
 
 
 def _blocks_above_thresholds(labels, grid, thresholds, is_cancelled):
-    """Label blocks, drop the small ones, repeat until nothing is dropped.
+    """Label blocks and drop the small ones (paper §3.2).
 
-    ``labels`` must be well-composed; they stay so.
+    Dropping whole blocks leaves the other blocks and their attributes as
+    they are (and the labels well-composed, :func:`core.blocks.drop_blocks`),
+    so one pass drops all there is to drop.
     """
-    total_dropped = 0
-    while True:
-        if is_cancelled is not None and is_cancelled():
-            raise Cancelled()
-        blocks, n = label_blocks(labels)
-        table = block_attributes(blocks, n, grid)
-        small = small_blocks(table, *thresholds)
-        if not small.any():
-            return blocks, table, total_dropped
-        drop_blocks(labels, blocks, table.block_id[small])  # leaves the labels well-composed
-        total_dropped += int(small.sum())
+    if is_cancelled is not None and is_cancelled():
+        raise Cancelled()
+    blocks, n = label_blocks(labels)
+    table = block_attributes(blocks, n, grid)
+    small = small_blocks(table, *thresholds)
+    if small.any():
+        drop_blocks(labels, blocks, table.block_id[small])
+        blocks, table = keep_blocks(blocks, table, ~small)
+    return blocks, table, int(small.sum())
 
 
 def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):

@@ -300,3 +300,20 @@ def test_block_attributes_match_a_count_per_block():
         assert t.top_z[b - 1] == g.origin[2] + (k.max() + 1) * g.voxel_size
     column = blocks[3, 3][blocks[3, 3] > 0]
     assert column[0] == column[-1] != column[3]  # the interleaved column is there
+
+
+def test_kept_blocks_are_numbered_and_measured_as_a_new_labelling_does():
+    from core.blocks import drop_blocks, keep_blocks
+
+    for seed in range(4):
+        g, labels = random_model(seed, shape=(30, 26, 12))
+        blocks, n = label_blocks(labels)
+        table = block_attributes(blocks, n, g)
+        keep = np.random.default_rng(seed).random(n) < 0.5
+        drop_blocks(labels, blocks, table.block_id[~keep])
+        kept, kept_table = keep_blocks(blocks, table, keep)
+        relabelled, m = label_blocks(labels)
+        assert m == keep.sum() and np.array_equal(kept, relabelled)
+        fresh = block_attributes(relabelled, m, g)
+        for name in ("block_id", "n_voxels", "volume", "footprint_area", "ground_z", "top_z"):
+            assert np.array_equal(getattr(kept_table, name), getattr(fresh, name)), name
