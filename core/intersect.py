@@ -26,7 +26,7 @@ import numpy as np
 
 from .errors import Cancelled
 from .neighbours import search_tree
-from .parallel import map_blocks, row_blocks
+from .parallel import map_blocks, row_blocks, thread_count
 from .quality import best_split
 
 #: Quantiles of the faces' reach that split them into size classes searched apart.
@@ -188,15 +188,22 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk
                     part = pairs[start:start + 16 * chunk]
                     yield s[part[:, 0]], s[part[:, 1]]
                 continue
-            for start in range(0, len(s), chunk):
+
+            def search(part: np.ndarray, o: np.ndarray = o, tree=tree, same: bool = same,
+                       radius: float = radius) -> tuple[np.ndarray, np.ndarray]:
                 if is_cancelled is not None and is_cancelled():
                     raise Cancelled()
-                part = s[start:start + chunk]
                 pairs = search_tree(centre[part]).sparse_distance_matrix(tree, radius, output_type="ndarray")
                 a, b = part[pairs["i"]], o[pairs["j"]]
                 if same:  # found from both sides
                     a, b = a[a < b], b[a < b]
-                yield a, b
+                return a, b
+
+            # The KD-tree searches release the GIL: a chunk per core at a
+            # time, yielded in order (the memory of one chunk's pairs each).
+            parts = [s[start:start + chunk] for start in range(0, len(s), chunk)]
+            for batch in row_blocks(len(parts), thread_count()):
+                yield from map_blocks(search, parts[batch])
 
 
 def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:
