@@ -119,10 +119,10 @@ def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, p: np.ndarray,
 
 
 def _reach(corner: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Largest distance from each triangle's centre to its corners: the
-    triangle lies in the ball of that radius around its centre."""
+    """Largest distance from each face's centre to its corners (three or
+    four): the face lies in the ball of that radius around its centre."""
     squared = np.zeros(len(centre))
-    for k in range(3):
+    for k in range(corner.shape[1]):
         d = corner[:, k] - centre
         squared = np.maximum(squared, d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2)
     return np.sqrt(squared)

@@ -96,3 +96,18 @@ def test_undo_crossings_matches_the_brute_force_reference():
         positions, kept, undone = undo_crossings(old, new, moved, quads)
         assert undone == expected[2] > 0
         assert np.array_equal(kept, expected[1]) and np.array_equal(positions, expected[0])
+
+
+def test_a_quad_is_searched_with_the_reach_of_all_four_corners():
+    # A kite whose fourth corner lies far from its centre, and a small
+    # vertical plate that is pushed down through the kite next to that corner.
+    nodes = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [-4, 5, 0],
+                      [-3.1, 4, 0.1], [-2.9, 4, 0.1], [-2.9, 4, 0.5], [-3.1, 4, 0.5]], float)
+    quads = np.array([[0, 1, 2, 3], [4, 5, 6, 7]])
+    new = nodes.copy()
+    new[[4, 5], 2] = -0.2
+    moved = np.zeros(len(nodes), bool)
+    moved[[4, 5]] = True
+    positions, kept, undone = undo_crossings(nodes, new, moved, quads)
+    assert undone == 2 and not kept[[4, 5]].any()
+    assert np.array_equal(positions, nodes)
