@@ -36,6 +36,8 @@ from .errors import UrbanvoxError
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel
 
 MESH_FORMATS = (".obj", ".stl", ".ply", ".vtu", ".msh")
+#: Rows formatted at a time (one call of the ``%`` operator).
+_ROWS = 65536
 
 
 def region_name(region: int) -> str:
@@ -74,8 +76,8 @@ def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray) -> Pat
 
 def _regions(model: SurfaceModel) -> list[int]:
     """Blocks in id order, then the ground and the air."""
-    ids = [int(r) for r in model.region_ids() if r > 0]
-    return ids + [r for r in (GROUND_REGION, AIR_REGION) if r in set(model.regions.ravel().tolist())]
+    present = model.region_ids()
+    return present[present > 0].tolist() + [r for r in (GROUND_REGION, AIR_REGION) if r in present]
 
 
 def _grouped_surfaces(model: SurfaceModel, regions: list[int]) -> tuple[np.ndarray, np.ndarray]:
@@ -105,26 +107,31 @@ def _write_obj(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     faces, bounds = _grouped_surfaces(model, regions)
     with open(path, "w", encoding="ascii") as out:
         out.write("# urbanvox: one closed, outward surface per region\n")
-        np.savetxt(out, world, fmt="v %.4f %.4f %.4f")
+        _write_rows(out, "v %.4f %.4f %.4f", world)
         for i, region in enumerate(regions):
             out.write(f"g {region_name(region)}\n")
-            np.savetxt(out, faces[bounds[i]:bounds[i + 1]] + 1, fmt="f %d %d %d")
+            _write_rows(out, "f %d %d %d", faces[bounds[i]:bounds[i + 1]] + 1)
 
 
 def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     regions = _regions(model)
     faces, bounds = _grouped_surfaces(model, regions)
+    # Each node's text once: every node is a corner of a dozen facets.
+    node_text = _formatted("%.4f %.4f %.4f", world)
+    facet = "facet normal %s\n outer loop\n  vertex %s\n  vertex %s\n  vertex %s\n endloop\nendfacet\n"
     with open(path, "w", encoding="ascii") as out:
         for i, region in enumerate(regions):
-            tri = world[faces[bounds[i]:bounds[i + 1]]]
-            normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-            normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
-            rows = np.concatenate([normal[:, None, :], tri], axis=1).reshape(len(tri), 12)
             name = region_name(region)
             out.write(f"solid {name}\n")
-            np.savetxt(out, rows, fmt=("facet normal %.6e %.6e %.6e\n outer loop\n"
-                                       "  vertex %.4f %.4f %.4f\n  vertex %.4f %.4f %.4f\n"
-                                       "  vertex %.4f %.4f %.4f\n endloop\nendfacet"))
+            for start in range(bounds[i], bounds[i + 1], _ROWS):
+                corner = faces[start:min(start + _ROWS, bounds[i + 1])]
+                tri = world[corner]
+                normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+                normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+                fields = np.empty((len(corner), 4), dtype=object)
+                fields[:, 0] = _formatted("%.6e %.6e %.6e", normal)
+                fields[:, 1:] = node_text[corner]
+                out.write(facet * len(corner) % tuple(fields.ravel().tolist()))
             out.write(f"endsolid {name}\n")
 
 
@@ -167,34 +174,70 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     A gmsh entity must be connected, so every interface is split into its
     connected patches and every region into its closed shells (one per
     cluster of scattered data, see :mod:`core.clusters`); the physical groups
-    gather them back by name.
+    gather them back by name. Patches are numbered by interface, then by
+    their first face; shells by region, then by their first face.
     """
     pairs = np.sort(model.regions, axis=1)  # faces stored from the lower region id into the higher
     faces = model.quads.copy()
     flip = model.regions[:, 0] > model.regions[:, 1]
     faces[flip] = faces[flip, ::-1]
-    interfaces, which = np.unique(pairs, axis=0, return_inverse=True)
-    which = which.ravel()
-    # Surface entities: connected patches of each interface.
+    interfaces, which = _unique_pairs(pairs)
+    n_nodes = len(world)
+    # Surface entities: connected patches of every interface, all at once:
+    # faces linked through an (interface, node) they share, numbered in the
+    # order of the faces sorted by interface.
+    face_order = np.argsort(which, kind="stable")
+    k = faces.shape[1]
+    patch_sorted, vertex, vertex_patch = _linked_parts(
+        np.repeat(np.arange(len(faces)), k), np.repeat(which[face_order], k), faces[face_order].ravel(),
+        len(faces), n_nodes)
     patch = np.empty(len(faces), dtype=np.int64)
-    patch_interface = []
-    for i in range(len(interfaces)):
-        sel = np.flatnonzero(which == i)
-        labels = _face_components(faces[sel], len(world))
-        patch[sel] = len(patch_interface) + labels
-        patch_interface.extend([i] * (int(labels.max()) + 1))
-    patch_interface = np.asarray(patch_interface)
-    # Volume entities: closed shells of each region, made of whole patches.
+    patch[face_order] = patch_sorted
+    first_face = face_order[np.unique(patch_sorted, return_index=True)[1]]
+    patch_interface = which[first_face]
+    n_patches = len(first_face)
+    # Volume entities: closed shells of each region, made of whole patches. A
+    # patch bounds the two regions of its interface: one item (region, patch)
+    # per side, linked to the others of the region through the nodes their
+    # faces share (the patches' (interface, node) pairs), numbered by region
+    # and then first face.
     regions = _regions(model)
-    shells = []  # (region, [signed patch tags])
-    for r in regions:
-        touching = np.flatnonzero((interfaces[patch_interface] == r).any(axis=1))
-        sel = np.flatnonzero(np.isin(patch, touching))
-        labels = _face_components(faces[sel], len(world))
-        for shell in range(int(labels.max()) + 1):
-            own = np.unique(patch[sel[labels == shell]])
-            sign = np.where(interfaces[patch_interface[own], 0] == r, 1, -1)  # normal out of r: +
-            shells.append((r, (sign * (own + 1)).tolist()))
+    ids = np.asarray(regions, dtype=np.int64)
+    by_id = np.argsort(ids)
+    at = np.minimum(np.searchsorted(ids[by_id], interfaces), max(len(ids) - 1, 0))
+    side_rank = np.where(ids[by_id][at] == interfaces, by_id[at], -1) if len(ids) else np.full(interfaces.shape, -1)
+    item_rank = side_rank[patch_interface].T.ravel()             # side 0 of every patch, then side 1
+    item_patch = np.tile(np.arange(n_patches), 2)
+    real = np.flatnonzero(item_rank >= 0)
+    items = real[np.lexsort((first_face[item_patch[real]], item_rank[real]))]
+    item_of = np.full(2 * n_patches, -1, dtype=np.int64)
+    item_of[items] = np.arange(len(items))
+    vertex_interface, vertex_node = vertex // n_nodes, vertex % n_nodes
+    link_side = np.concatenate([np.zeros(len(vertex), np.int64), np.ones(len(vertex), np.int64)])
+    link_rank = side_rank[np.tile(vertex_interface, 2), link_side]
+    link_item = item_of[link_side * n_patches + np.tile(vertex_patch, 2)]
+    on_region = link_rank >= 0
+    shell, _, _ = _linked_parts(link_item[on_region], link_rank[on_region],
+                                np.tile(vertex_node, 2)[on_region], len(items), n_nodes)
+    item_rank, item_patch = item_rank[items], item_patch[items]
+    shell_region = ids[item_rank[np.unique(shell, return_index=True)[1]]]
+    # The patches of each shell, ascending, and whether the shell's region is
+    # their interface's first (normal out of it: +) or second region.
+    by_shell = np.lexsort((item_patch, shell))
+    shell_of, patch_of = shell[by_shell], item_patch[by_shell]
+    sign = np.where(interfaces[patch_interface[patch_of], 0] == shell_region[shell_of], 1, -1)
+    bounding = np.split(sign * (patch_of + 1), np.flatnonzero(np.diff(shell_of)) + 1)
+    # Entity boxes: of each patch's nodes, and of each shell's patches.
+    order = np.argsort(patch, kind="stable")
+    bounds = np.searchsorted(patch[order], np.arange(n_patches + 1))
+    corners = world[faces[order]]
+    patch_lower = np.minimum.reduceat(corners.min(axis=1), bounds[:-1])
+    patch_upper = np.maximum.reduceat(corners.max(axis=1), bounds[:-1])
+    del corners
+    shell_start = np.searchsorted(shell_of, np.arange(len(bounding)))
+    shell_lower = np.minimum.reduceat(patch_lower[patch_of], shell_start)
+    shell_upper = np.maximum.reduceat(patch_upper[patch_of], shell_start)
+
     physical_region = {r: i + 1 for i, r in enumerate(regions)}
     names = []
     for s, (ra, rb) in enumerate(interfaces, start=1):
@@ -204,47 +247,103 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
         names.append(f'3 {v} "{region_name(r)}"')
     lines = ["$MeshFormat", "4.1 0 8", "$EndMeshFormat",
              "$PhysicalNames", str(len(names)), *names, "$EndPhysicalNames",
-             "$Entities", f"0 0 {len(patch_interface)} {len(shells)}"]
-    for p, i in enumerate(patch_interface, start=1):
-        box = world[faces[patch == p - 1].ravel()]
-        lines.append(f"{p} {_box(box)} 1 {i + 1} 0")
-    for v, (r, bounding) in enumerate(shells, start=1):
-        box = world[faces[np.isin(patch, np.abs(bounding) - 1)].ravel()]
-        lines.append(f"{v} {_box(box)} 1 {physical_region[r]} {len(bounding)} " + " ".join(map(str, bounding)))
+             "$Entities", f"0 0 {n_patches} {len(bounding)}"]
+    for p, i in enumerate(patch_interface.tolist(), start=1):
+        lines.append(f"{p} {_box(patch_lower[p - 1], patch_upper[p - 1])} 1 {i + 1} 0")
+    for v, tags in enumerate(bounding, start=1):
+        region = physical_region[int(shell_region[v - 1])]
+        lines.append(f"{v} {_box(shell_lower[v - 1], shell_upper[v - 1])} 1 {region} {len(tags)} "
+                     + " ".join(map(str, tags.tolist())))
     lines.append("$EndEntities")
-    n_nodes = len(world)
     # All nodes in one block on the first surface entity: node tags are
     # global in gmsh, and each shared node is stored once.
     lines += ["$Nodes", f"1 {n_nodes} 1 {n_nodes}", f"2 1 0 {n_nodes}"]
-    order = np.argsort(patch, kind="stable")
-    bounds = np.searchsorted(patch[order], np.arange(len(patch_interface) + 1))
     with open(path, "w", encoding="ascii") as out:
         out.write("\n".join(lines) + "\n")
-        np.savetxt(out, np.arange(1, n_nodes + 1), fmt="%d")
-        np.savetxt(out, world, fmt="%.4f %.4f %.4f")
+        _write_rows(out, "%d", np.arange(1, n_nodes + 1)[:, None])
+        _write_rows(out, "%.4f %.4f %.4f", world)
         out.write("$EndNodes\n$Elements\n")
-        out.write(f"{len(patch_interface)} {len(faces)} 1 {len(faces)}\n")
-        for p in range(len(patch_interface)):
+        out.write(f"{n_patches} {len(faces)} 1 {len(faces)}\n")
+        row_format = " ".join(["%d"] * (faces.shape[1] + 1))
+        for p in range(n_patches):
             members = order[bounds[p]:bounds[p + 1]]
             out.write(f"2 {p + 1} 2 {len(members)}\n")
-            np.savetxt(out, np.column_stack([members + 1, faces[members] + 1]), fmt="%d")
+            _write_rows(out, row_format, np.column_stack([members + 1, faces[members] + 1]))
         out.write("$EndElements\n")
 
 
-def _box(points: np.ndarray) -> str:
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    return f"{lo[0]:.4f} {lo[1]:.4f} {lo[2]:.4f} {hi[0]:.4f} {hi[1]:.4f} {hi[2]:.4f}"
+def _box(lower: np.ndarray, upper: np.ndarray) -> str:
+    return (f"{lower[0]:.4f} {lower[1]:.4f} {lower[2]:.4f} "
+            f"{upper[0]:.4f} {upper[1]:.4f} {upper[2]:.4f}")
 
 
-def _face_components(faces: np.ndarray, n_nodes: int) -> np.ndarray:
-    """Component of every face, faces being connected through shared nodes."""
+def _unique_pairs(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(pairs, axis=0, return_inverse=True)`` of (F, 2) small
+    integers, by one key per row (a sort of F numbers instead of F rows)."""
+    if len(pairs) == 0:
+        return pairs.reshape(0, 2), np.zeros(0, dtype=np.int64)
+    low = pairs.min()
+    span = int(pairs.max()) - int(low) + 1
+    keys, which = np.unique((pairs[:, 0] - low).astype(np.int64) * span + (pairs[:, 1] - low),
+                            return_inverse=True)
+    return np.column_stack([keys // span, keys % span]) + low, which.ravel()
+
+
+def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items: int,
+                  n_nodes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Connected parts of items linked through the (group, node) pairs they have.
+
+    Parameters
+    ----------
+    item, group, node : ndarray of int (L,)
+        The links: item ``item[i]`` has the pair ``(group[i], node[i])``.
+    n_items, n_nodes : int
+
+    Returns
+    -------
+    part : ndarray of int (n_items,)
+        Part of every item, numbered in the order of their first item.
+    pair : ndarray of int64 (V,)
+        The distinct pairs, as ``group * n_nodes + node``, ascending.
+    pair_part : ndarray of int (V,)
+        The part of each pair.
+
+    Examples
+    --------
+    Three triangles, the first two sharing node 2, in group 0; the third
+    shares node 4 with the second but in another group:
+
+    >>> tri = np.array([[0, 1, 2], [2, 3, 4], [4, 5, 6]])
+    >>> part, pair, _ = _linked_parts(np.repeat(np.arange(3), 3), np.repeat([0, 0, 1], 3), tri.ravel(), 3, 7)
+    >>> part.tolist(), len(pair)
+    ([0, 0, 1], 8)
+    """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    rows = np.repeat(np.arange(len(faces)), faces.shape[1])
-    # Faces and nodes in one bipartite graph: faces sharing a node are connected.
-    graph = coo_matrix((np.ones(len(rows), np.int8), (rows, len(faces) + faces.ravel())),
-                       shape=(len(faces) + n_nodes, len(faces) + n_nodes))
+    pair, vertex = np.unique(group.astype(np.int64) * n_nodes + node, return_inverse=True)
+    size = n_items + len(pair)
+    # Items and pairs in one bipartite graph; the items are its first
+    # vertices, so its parts are numbered in the order of their first item.
+    graph = coo_matrix((np.ones(len(item), np.int8), (item, n_items + vertex.ravel())), shape=(size, size))
     _, labels = connected_components(graph, directed=False)
-    _, compact = np.unique(labels[:len(faces)], return_inverse=True)
-    return compact.ravel()
+    return labels[:n_items], pair, labels[n_items:]
+
+
+def _write_rows(out, row_format: str, rows: np.ndarray) -> None:
+    """``np.savetxt(out, rows, fmt=row_format)``, a block of rows per format call
+    (the same text, several times faster than a call per row)."""
+    line = row_format + "\n"
+    for start in range(0, len(rows), _ROWS):
+        part = rows[start:start + _ROWS]
+        out.write(line * len(part) % tuple(part.ravel().tolist()))
+
+
+def _formatted(row_format: str, rows: np.ndarray) -> np.ndarray:
+    """The text of every row (an object array of str), as :func:`_write_rows` writes it."""
+    text = np.empty(len(rows), dtype=object)
+    line = row_format + "\n"
+    for start in range(0, len(rows), _ROWS):
+        part = rows[start:start + _ROWS]
+        text[start:start + len(part)] = (line * len(part) % tuple(part.ravel().tolist())).split("\n")[:-1]
+    return text
