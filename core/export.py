@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import UrbanvoxError
+from .heap import reusing_freed_memory
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel
 
 MESH_FORMATS = (".obj", ".stl", ".ply", ".vtu", ".msh")
@@ -45,6 +46,7 @@ def region_name(region: int) -> str:
     return f"block_{region}" if region > 0 else REGION_NAMES[region]
 
 
+@reusing_freed_memory()
 def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray) -> Path:
     """Write the model's regions to ``path``; the suffix picks the format.
 
