@@ -1,8 +1,12 @@
 """A PNG picture of a reconstruction: oblique view, blocks coloured by height.
 
-Written with matplotlib's Agg backend (no display needed). Faces pointing
-away from the viewer are culled and the rest drawn back to front, which is
-enough for a readable picture of a district without a 3-D engine.
+Faces pointing away from the viewer are culled and the rest rasterised with
+a depth buffer: each triangle is sampled in proportion to its area on the
+picture (three samples per pixel; its centroid when it is smaller than a
+pixel), and every pixel takes the colour of its nearest sample. A city has
+millions of faces about a pixel large: drawing them as polygons with
+matplotlib took longer than the reconstruction. The panels are
+laid out and written with matplotlib's Agg backend (no display needed).
 """
 from __future__ import annotations
 
@@ -25,9 +29,12 @@ def _view_axes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return eye, right, up
 
 
+#: Width of a panel's picture in pixels, and samples per pixel of a triangle's area.
+_PIXELS, _SAMPLES_PER_PIXEL = 770, 3.0
+
+
 def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: float, title: str) -> None:
     from matplotlib import cm
-    from matplotlib.collections import PolyCollection
 
     eye, right, up = _view_axes()
     tri = model.triangulated()
@@ -37,23 +44,100 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     p = tri.nodes[faces]
     normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
     length = np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
-    facing = normal @ eye > 0
-    shade = 0.55 + 0.45 * np.clip((normal @ np.array([0.3, 0.5, 0.8])) / length, 0, 1)
-    heights = np.array([height_of_block.get(int(b), 0.0) for b in owner])
+    facing = np.flatnonzero(normal @ eye > 0)
+    ids = np.array(sorted(height_of_block), dtype=np.int64)
+    values = np.array([height_of_block[i] for i in ids.tolist()], dtype=np.float64)
+    at = np.minimum(np.searchsorted(ids, owner), max(len(ids) - 1, 0))
+    heights = np.where(ids[at] == owner, values[at], 0.0) if len(ids) else np.zeros(len(owner))
     colours = np.empty((len(faces), 4))
     colours[: len(block_tri)] = cm.viridis(np.clip(heights / max(vmax, 1e-9), 0, 1))
     colours[len(block_tri):] = (0.78, 0.76, 0.70, 1.0)
-    colours[:, :3] *= shade[:, None]
-    depth = (p.mean(axis=1) @ eye)
-    keep = np.flatnonzero(facing)
-    keep = keep[np.argsort(depth[keep])]  # far first
-    xy = np.stack([p[keep] @ right, p[keep] @ up], axis=-1)
-    ax.add_collection(PolyCollection(xy, facecolors=colours[keep], edgecolors="none", antialiased=False))
-    ax.set_xlim(xy[..., 0].min(), xy[..., 0].max())
-    ax.set_ylim(xy[..., 1].min(), xy[..., 1].max())
+    colours[:, :3] *= (0.55 + 0.45 * np.clip((normal @ np.array([0.3, 0.5, 0.8])) / length, 0, 1))[:, None]
+    # View coordinates: across, up, and depth towards the eye.
+    view = p[facing] @ np.column_stack([right, up, eye])
+    image, extent = _rasterised(view, colours[facing])
+    ax.imshow(image, origin="lower", extent=extent, interpolation="nearest")
+    ax.set_xlim(extent[0], extent[1])
+    ax.set_ylim(extent[2], extent[3])
     ax.set_aspect("equal")
     ax.set_axis_off()
     ax.set_title(title)
+
+
+def _rasterised(view: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+    """RGBA picture of triangles given in view coordinates (T, 3, 3): x, y and
+    depth (larger is nearer), and its extent (x0, x1, y0, y1).
+
+    Examples
+    --------
+    Two squares' worth of triangles, the nearer red one over the blue one:
+
+    >>> square = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+    >>> near = square + [0.25, 0.25, 1.0]
+    >>> rgba = np.array([[0, 0, 1, 1], [0, 0, 1, 1], [1, 0, 0, 1], [1, 0, 0, 1]], float)
+    >>> image, extent = _rasterised(np.concatenate([square, near]), rgba)
+    >>> image.shape[1], extent
+    (770, (0.0, 1.25, 0.0, 1.25))
+    >>> image[-5, -5].tolist(), image[5, 5].tolist(), image[-5, 5].tolist()
+    ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.0])
+    """
+    if len(view) == 0:
+        return np.zeros((1, 1, 4)), (0.0, 1.0, 0.0, 1.0)
+    lower, upper = view[..., :2].min(axis=(0, 1)), view[..., :2].max(axis=(0, 1))
+    scale = (_PIXELS - 1) / max(float(upper[0] - lower[0]), 1e-12)
+    width, height = _PIXELS, int(np.floor((upper[1] - lower[1]) * scale)) + 1
+    pixel = view.copy()
+    pixel[..., :2] = (view[..., :2] - lower) * scale
+    # Samples in proportion to each triangle's area on the picture (its
+    # centroid for one within a pixel), spread by the R2 low-discrepancy
+    # sequence folded into the triangle.
+    edge1, edge2 = pixel[:, 1] - pixel[:, 0], pixel[:, 2] - pixel[:, 0]
+    area = 0.5 * np.abs(edge1[:, 0] * edge2[:, 1] - edge1[:, 1] * edge2[:, 0])
+    count = np.maximum(1, np.ceil(area * _SAMPLES_PER_PIXEL)).astype(np.int64)
+    owner = np.repeat(np.arange(len(pixel)), count)
+    j = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
+    u, v = (0.5 + j * 0.7548776662466927) % 1.0, (0.5 + j * 0.5698402909980532) % 1.0
+    fold = u + v > 1.0
+    u[fold], v[fold] = 1.0 - u[fold], 1.0 - v[fold]
+    single = count[owner] == 1
+    u[single] = v[single] = 1.0 / 3.0
+    sample = pixel[owner, 0] + u[:, None] * edge1[owner] + v[:, None] * edge2[owner]
+    column = np.clip(np.rint(sample[:, 0]), 0, width - 1).astype(np.int64)
+    row = np.clip(np.rint(sample[:, 1]), 0, height - 1).astype(np.int64)
+    # Depth buffer: the nearest sample of every pixel, from one sort of the
+    # pixel and the (31-bit) distance behind the nearest sample.
+    depth = sample[:, 2]
+    behind = (depth.max() - depth) / max(float(np.ptp(depth)), 1e-300) * (2**31 - 1)
+    key = (row * width + column) << 31 | behind.astype(np.int64)
+    order = np.argsort(key)
+    pixel_of = key[order] >> 31
+    first = np.ones(len(order), dtype=bool)
+    first[1:] = pixel_of[1:] != pixel_of[:-1]
+    nearest = order[first]
+    image = np.zeros((height * width, 4))
+    image[pixel_of[first]] = colours[owner[nearest]]
+    extent = (float(lower[0]), float(lower[0] + (width - 1) / scale),
+              float(lower[1]), float(lower[1] + (height - 1) / scale))
+    return _fill_specks(image.reshape(height, width, 4)), extent
+
+
+def _fill_specks(image: np.ndarray) -> np.ndarray:
+    """Empty pixels surrounded by drawn ones (where no sample fell) take the
+    colour of a drawn neighbour; the background around the model stays."""
+    drawn = image[..., 3] > 0
+    padded = np.pad(drawn, 1)
+    h, w = drawn.shape
+    shifts = [(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1) if (di, dj) != (0, 0)]
+    around = sum(padded[1 + di:h + 1 + di, 1 + dj:w + 1 + dj].astype(np.int8) for di, dj in shifts)
+    speck = ~drawn & (around >= 6)
+    filled = image.copy()
+    for di, dj in shifts:  # the last drawn neighbour in this order gives the colour
+        source = np.zeros_like(drawn)
+        source[max(0, -di):h - max(0, di), max(0, -dj):w - max(0, dj)] = \
+            drawn[max(0, di):h - max(0, -di), max(0, dj):w - max(0, -dj)]
+        take = speck & source
+        filled[take] = np.roll(image, (-di, -dj), axis=(0, 1))[take]
+    return filled
 
 
 def write_preview(path: str | Path, panels: list[tuple[SurfaceModel, str]],
