@@ -182,7 +182,6 @@ class Reconstruction:
         """
         import shapely
 
-
         ids = self.blocks.block_id
         lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
         lookup[ids] = np.arange(len(ids))

@@ -414,31 +414,25 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         crs = QgsCoordinateReferenceSystem.fromWkt(result.crs.to_wkt())
         kinds = field_kinds(rows)
         fields = block_fields(kinds)
-        sinks = {}
-        for name, wkb_type in ((self.OUTPUT_BLOCKS, MULTIPOLYGON_Z), (self.OUTPUT_FOOTPRINTS, POLYGON)):
-            sink, dest_id = self.parameterAsSink(parameters, name, context, fields, wkb_type, crs)
-            if sink is None:
-                raise QgsProcessingException(self.invalidSinkError(parameters, name))
-            sinks[name] = (sink, dest_id)
-
-        for row, surface, footprint in zip(rows, surfaces, footprints):
-            attributes = block_attributes(row, kinds)
-            self._add(sinks[self.OUTPUT_BLOCKS][0], fields, attributes, _geometry_from_wkb(surface), self.OUTPUT_BLOCKS)
-            self._add(
-                sinks[self.OUTPUT_FOOTPRINTS][0], fields, attributes, _geometry_from_wkb(footprint), self.OUTPUT_FOOTPRINTS
-            )
+        attributes = [block_attributes(row, kinds) for row in rows]
+        destinations = {}
+        # One layer after the other, each closed before the next is opened:
+        # several outputs are often layers of one GeoPackage, and two open
+        # writers of one file can lose a layer when they commit.
+        for name, wkb_type, geometries in ((self.OUTPUT_BLOCKS, MULTIPOLYGON_Z, surfaces),
+                                           (self.OUTPUT_FOOTPRINTS, POLYGON, footprints)):
+            destinations[name] = self._write_layer(parameters, name, context, fields, wkb_type, crs,
+                                                   zip(attributes, geometries))
 
         outputs = {}
-        ground_sink = None
         if parameters.get(self.OUTPUT_GROUND):
             ground_fields = QgsFields()
             ground_fields.append(make_field("tile", "int"))
-            ground_sink, ground_id = self.parameterAsSink(parameters, self.OUTPUT_GROUND, context, ground_fields,
-                                                          MULTIPOLYGON_Z, crs)
-            if ground_sink is not None:
-                for tile, wkb in enumerate(result.ground_surface_wkb()):
-                    self._add(ground_sink, ground_fields, [tile], _geometry_from_wkb(wkb), self.OUTPUT_GROUND)
-                outputs[self.OUTPUT_GROUND] = ground_id
+            ground = self._write_layer(parameters, self.OUTPUT_GROUND, context, ground_fields, MULTIPOLYGON_Z,
+                                       crs, (([tile], wkb) for tile, wkb in enumerate(result.ground_surface_wkb())),
+                                       optional=True)
+            if ground is not None:
+                outputs[self.OUTPUT_GROUND] = ground
         mesh_path = self.parameterAsFileOutput(parameters, self.OUTPUT_MESH, context)
         if mesh_path:
             try:
@@ -454,16 +448,33 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         count = int(result.summary["block_count"])
         volume = float(result.summary["total_volume"])
         feedback.pushInfo(f"{count} building blocks, total volume {volume:.1f} m³.")
-        style_on_load(context, sinks[self.OUTPUT_BLOCKS][1], style_blocks)
-        style_on_load(context, sinks[self.OUTPUT_FOOTPRINTS][1], style_footprints)
+        style_on_load(context, destinations[self.OUTPUT_BLOCKS], style_blocks)
+        style_on_load(context, destinations[self.OUTPUT_FOOTPRINTS], style_footprints)
         style_on_load(context, outputs.get(self.OUTPUT_GROUND), style_ground)
         outputs.update({
-            self.OUTPUT_BLOCKS: sinks[self.OUTPUT_BLOCKS][1],
-            self.OUTPUT_FOOTPRINTS: sinks[self.OUTPUT_FOOTPRINTS][1],
+            self.OUTPUT_BLOCKS: destinations[self.OUTPUT_BLOCKS],
+            self.OUTPUT_FOOTPRINTS: destinations[self.OUTPUT_FOOTPRINTS],
             self.BLOCK_COUNT: count,
             self.TOTAL_VOLUME: volume,
         })
         return outputs
+
+    def _write_layer(self, parameters, name, context, fields, wkb_type, crs, rows, optional=False):
+        """Write ``rows`` of (attributes, WKB) to output ``name``, close it, return its destination.
+
+        An ``optional`` output the user left out gives ``None``.
+        """
+        sink, destination = self.parameterAsSink(parameters, name, context, fields, wkb_type, crs)
+        if sink is None:
+            if optional:
+                return None
+            raise QgsProcessingException(self.invalidSinkError(parameters, name))
+        for attributes, wkb in rows:
+            self._add(sink, fields, attributes, _geometry_from_wkb(wkb), name)
+        if not sink.flushBuffer():
+            raise QgsProcessingException(f"Could not write {name}: {sink.lastError()}")
+        del sink  # the writer closes: its file is complete before the next output opens it
+        return destination
 
     @staticmethod
     def _add(sink, fields, attributes, geometry, name):
