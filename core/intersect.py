@@ -199,8 +199,8 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk
                     a, b = a[a < b], b[a < b]
                 return a, b
 
-            # The KD-tree searches release the GIL: a chunk per core at a
-            # time, yielded in order (the memory of one chunk's pairs each).
+            # The KD-tree searches release the GIL: a chunk per thread at a
+            # time, yielded in order (memory: one chunk's pairs per thread).
             parts = [s[start:start + chunk] for start in range(0, len(s), chunk)]
             for batch in row_blocks(len(parts), thread_count()):
                 yield from map_blocks(search, parts[batch])

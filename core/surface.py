@@ -208,8 +208,8 @@ class SurfaceModel:
 
 
 def _unique_nodes(flat: np.ndarray, n_lattice: int) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(flat, return_inverse=True)`` for lattice node numbers below ``n_lattice``
-    (the inverse in the shape of ``flat``).
+    """``np.unique(flat, return_inverse=True)`` for lattice node numbers below
+    ``n_lattice`` (``flat`` of any shape: the caller reshapes the inverse).
 
     A mark per lattice node and a running count give the same sorted nodes
     and ranks in linear time. They cost 5 bytes per lattice node (about the

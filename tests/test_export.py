@@ -3,7 +3,7 @@ conforming surfaces, and gmsh builds a valid tetrahedral mesh from the .msh."""
 import numpy as np
 import pytest
 
-from core.pipeline import ReconstructionParams, reconstruct_mesh, reconstruct_point_cloud
+from core.pipeline import ReconstructionParams, reconstruct_mesh, reconstruct_point_cloud, reconstruct_points
 from core.topology import check_surface
 
 
@@ -142,3 +142,72 @@ def test_preview_png(result, tmp_path):
     path = result.write_preview(tmp_path / "city.png")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert path.stat().st_size > 20_000
+
+
+def _face_parts(faces, n_nodes):
+    """Parts of faces connected through shared nodes, numbered by first face (reference)."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rows = np.repeat(np.arange(len(faces)), faces.shape[1])
+    size = len(faces) + n_nodes
+    graph = coo_matrix((np.ones(len(rows)), (rows, len(faces) + faces.ravel())), shape=(size, size))
+    labels = connected_components(graph, directed=False)[1][:len(faces)]
+    return np.unique(labels, return_inverse=True)[1].ravel()
+
+
+def _reference_entities(model):
+    """gmsh entities as first written: one search per interface and per region."""
+    from core.export import _regions
+
+    tri = model.triangulated()
+    pairs = np.sort(tri.regions, axis=1)
+    interfaces, which = np.unique(pairs, axis=0, return_inverse=True)
+    which = which.ravel()
+    patch = np.empty(len(pairs), dtype=np.int64)
+    patch_interface = []
+    for i in range(len(interfaces)):
+        sel = np.flatnonzero(which == i)
+        labels = _face_parts(tri.quads[sel], len(tri.nodes))
+        patch[sel] = len(patch_interface) + labels
+        patch_interface += [i] * (labels.max() + 1)
+    shells = []
+    for r in _regions(tri):
+        touching = np.flatnonzero((interfaces[patch_interface] == r).any(axis=1))
+        sel = np.flatnonzero(np.isin(patch, touching))
+        labels = _face_parts(tri.quads[sel], len(tri.nodes))
+        for shell in range(labels.max() + 1):
+            own = np.unique(patch[sel[labels == shell]])
+            sign = np.where(interfaces[np.asarray(patch_interface)[own], 0] == r, 1, -1)
+            shells.append((r, (sign * (own + 1)).tolist()))
+    return [i + 1 for i in patch_interface], shells
+
+
+def _msh_entities(path, regions):
+    """(physical surface of every surface entity, (region, bounding surfaces) of every volume)."""
+    lines = path.read_text().split("$Entities\n")[1].split("$EndEntities")[0].splitlines()
+    n_surfaces, n_volumes = map(int, lines[0].split()[2:])
+    surfaces = [int(line.split()[8]) for line in lines[1:1 + n_surfaces]]
+    volumes = []
+    for line in lines[1 + n_surfaces:1 + n_surfaces + n_volumes]:
+        field = line.split()
+        volumes.append((regions[int(field[8]) - 1], [int(t) for t in field[10:]]))
+    return surfaces, volumes
+
+
+def test_gmsh_entities_match_a_search_per_interface_and_region(district, tmp_path):
+    from core.export import _regions
+    from core.readers.las import read_point_clouds
+
+    # Two copies of the district 400 m apart: two clusters, so the ground and
+    # the air have two shells each and every interface two patches or more.
+    points = read_point_clouds([district.laz])
+    shift = np.array([400.0, 0.0, 0.0])
+    two = reconstruct_points(np.concatenate([points.ground, points.ground + shift]),
+                             np.concatenate([points.building, points.building + shift]), points.crs,
+                             ReconstructionParams(voxel_size=4.0), airborne=True)
+    surfaces, volumes = _msh_entities(two.write_mesh(tmp_path / "two.msh"), _regions(two.mesh))
+    expected_surfaces, expected_volumes = _reference_entities(two.mesh)
+    assert surfaces == expected_surfaces
+    assert volumes == expected_volumes
+    assert sum(region == -1 for region, _ in volumes) == 2  # two ground shells
