@@ -57,6 +57,9 @@ BASE_MODULES = ("numpy", "scipy", "pyproj", "shapely")
 #: What a user installs into QGIS's Python to get all of them.
 PIP_PACKAGES = ('"laspy[lazrs]"', "trimesh", "shapely", "pyproj", "scipy")
 
+#: Share of the progress bar (%) for the method; writing the outputs has the rest.
+_RECONSTRUCTION_PERCENT = 80.0
+
 
 def field_kinds(rows):
     """(name, kind) of the output fields: :data:`BLOCK_FIELDS`, then the rows' other keys in order."""
@@ -383,7 +386,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         )
 
         def progress(fraction, message=None):
-            feedback.setProgress(100.0 * min(max(float(fraction), 0.0), 1.0))
+            feedback.setProgress(_RECONSTRUCTION_PERCENT * min(max(float(fraction), 0.0), 1.0))
             if message:
                 feedback.setProgressText(str(message))
 
@@ -399,11 +402,20 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
 
         for warning in result.warnings:
             feedback.pushWarning(str(warning))
+        if feedback.isCanceled():  # before the first output: nothing half-written
+            raise QgsProcessingException(self.tr("Cancelled; no output was written."))
         return self.writeOutputs(result, parameters, context, feedback)
 
     # -- outputs ------------------------------------------------------------------------------
 
     def writeOutputs(self, result, parameters, context, feedback):  # noqa: N802
+        # A city's layers, mesh and picture take a while after the method: they have their share
+        # of the progress bar.
+        def step(percent, text):
+            feedback.setProgress(percent)
+            feedback.setProgressText(text)
+
+        step(_RECONSTRUCTION_PERCENT, self.tr("Writing the blocks and footprints"))
         rows = result.block_rows()
         surfaces = result.block_surface_wkb()
         footprints = result.footprint_wkb()
@@ -426,6 +438,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
 
         outputs = {}
         if parameters.get(self.OUTPUT_GROUND):
+            step(88.0, self.tr("Writing the ground"))
             ground_fields = QgsFields()
             ground_fields.append(make_field("tile", "int"))
             ground = self._write_layer(parameters, self.OUTPUT_GROUND, context, ground_fields, MULTIPOLYGON_Z,
@@ -436,8 +449,10 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         mesh_path = self.parameterAsFileOutput(parameters, self.OUTPUT_MESH, context)
         if mesh_path:
             try:
+                step(92.0, self.tr("Writing the mesh {}").format(os.path.basename(mesh_path)))
                 result.write_mesh(mesh_path)
                 preview = os.path.splitext(mesh_path)[0] + ".png"
+                step(97.0, self.tr("Drawing the preview"))
                 result.write_preview(preview)
             except Exception as err:  # UrbanvoxError, or an I/O error: say which file
                 raise QgsProcessingException(f"Could not write {mesh_path}: {err}") from err
@@ -447,6 +462,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
 
         count = int(result.summary["block_count"])
         volume = float(result.summary["total_volume"])
+        feedback.setProgress(100.0)
         feedback.pushInfo(f"{count} building blocks, total volume {volume:.1f} m³.")
         style_on_load(context, destinations[self.OUTPUT_BLOCKS], style_blocks)
         style_on_load(context, destinations[self.OUTPUT_FOOTPRINTS], style_footprints)

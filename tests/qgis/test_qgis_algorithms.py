@@ -179,12 +179,19 @@ def test_smoothed_outputs_ground_layer_mesh_file_and_preview(processing, distric
     """Paper §4 outputs: smoothed blocks with mesh measures, the terrain, a mesh file and a PNG."""
     gpkg = tmp_path / "smoothed.gpkg"
     mesh = tmp_path / "district.obj"
+    feedback = make_feedback()
     results = processing.run(
         "urbanvox:reconstructfrompointcloud",
         {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "SMOOTHING_ITERATIONS": 3, "PROJECT": True,
          "QUALITY_THRESHOLD": 0.25, "EXTENT": "2600000,2600250,1200000,1200250 [EPSG:2056]",
          **gpkg_outputs(gpkg), "OUTPUT_GROUND": gpkg_sink(gpkg, "ground"), "OUTPUT_MESH": str(mesh)},
+        feedback=feedback,
     )
+    # Writing the outputs reports its own steps, after the method's, and the bar ends full.
+    outputs_from = feedback.texts.index("Writing the blocks and footprints")
+    assert feedback.texts[outputs_from:] == ["Writing the blocks and footprints", "Writing the ground",
+                                             "Writing the mesh district.obj", "Drawing the preview"]
+    assert feedback.progress == sorted(feedback.progress) and feedback.progress[-1] == pytest.approx(100.0)
     _, blocks = read_layer(gpkg, "blocks")
     assert len(blocks) == results["BLOCK_COUNT"] > 40
     for feature in blocks:
