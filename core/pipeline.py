@@ -180,7 +180,7 @@ class Reconstruction:
         Voxel faces are written as quads; once smoothed, as the two
         triangles of each quad's best split (a moved quad is not planar).
         """
-        import shapely
+        from .wkb import multipolygons_z
 
         ids = self.blocks.block_id
         lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
@@ -191,16 +191,13 @@ class Reconstruction:
         order = np.argsort(index, kind="stable")
         rings = self.grid.to_world(self.mesh.nodes)[faces[order]]
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
-        polygons = shapely.polygons(rings)
-        multi = shapely.multipolygons(polygons, indices=index[order])
-        return list(shapely.to_wkb(multi, output_dimension=3))
+        return multipolygons_z(rings, index[order], len(ids))
 
     def ground_surface_wkb(self, tile: int = 64) -> list[bytes]:
         """The terrain (ground/air faces) as MultiPolygonZ WKB, one per tile of
         ``tile`` x ``tile`` columns so that no feature is city-sized."""
-        import shapely
-
         from .surface import AIR_REGION, GROUND_REGION
+        from .wkb import multipolygons_z
 
         model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh.triangulated()
         faces = model.interface(GROUND_REGION, AIR_REGION)
@@ -214,8 +211,7 @@ class Reconstruction:
         order = np.argsort(index, kind="stable")
         rings = nodes[faces[order]]
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
-        multi = shapely.multipolygons(shapely.polygons(rings), indices=index[order])
-        return list(shapely.to_wkb(multi, output_dimension=3))
+        return multipolygons_z(rings, index[order], int(index.max()) + 1)
 
     def write_mesh(self, path) -> "Path":
         """Write the final conforming mesh; the suffix picks the format (:mod:`core.export`)."""
