@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -174,6 +175,7 @@ class Reconstruction:
             })
         return rows
 
+    @reusing_freed_memory()
     def block_surface_wkb(self) -> list[bytes]:
         """Closed outward surface of every block as MultiPolygonZ WKB, world coordinates.
 
@@ -185,7 +187,7 @@ class Reconstruction:
         ids = self.blocks.block_id
         lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
         lookup[ids] = np.arange(len(ids))
-        model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh.triangulated()
+        model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh_triangles
         faces, owner = model.block_faces()
         index = lookup[owner]
         order = np.argsort(index, kind="stable")
@@ -193,13 +195,14 @@ class Reconstruction:
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
         return multipolygons_z(rings, index[order], len(ids))
 
+    @reusing_freed_memory()
     def ground_surface_wkb(self, tile: int = 64) -> list[bytes]:
         """The terrain (ground/air faces) as MultiPolygonZ WKB, one per tile of
         ``tile`` x ``tile`` columns so that no feature is city-sized."""
         from .surface import AIR_REGION, GROUND_REGION
         from .wkb import multipolygons_z
 
-        model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh.triangulated()
+        model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh_triangles
         faces = model.interface(GROUND_REGION, AIR_REGION)
         if len(faces) == 0:
             return []
@@ -213,11 +216,16 @@ class Reconstruction:
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
         return multipolygons_z(rings, index[order], int(index.max()) + 1)
 
+    @cached_property
+    def mesh_triangles(self) -> SurfaceModel:
+        """``mesh`` with every quad split along its best diagonal, once for all outputs."""
+        return self.mesh.triangulated()
+
     def write_mesh(self, path) -> "Path":
         """Write the final conforming mesh; the suffix picks the format (:mod:`core.export`)."""
         from .export import write_mesh
 
-        return write_mesh(path, self.mesh, self.grid.offset)
+        return write_mesh(path, self.mesh_triangles, self.grid.offset)
 
     def write_preview(self, path, before_after: bool = True) -> "Path":
         """PNG picture, blocks coloured by height; voxels beside the final mesh."""

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .heap import reusing_freed_memory
 from .surface import AIR_REGION, GROUND_REGION, SurfaceModel
 
 #: Viewer direction (from the scene towards the eye): south-west, 35 degrees up.
@@ -37,25 +38,32 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     from matplotlib import cm
 
     eye, right, up = _view_axes()
-    tri = model.triangulated()
-    block_tri, owner = tri.block_faces()
-    ground_tri = tri.interface(GROUND_REGION, AIR_REGION)
+    # Any split of a quad draws the same picture: the fixed diagonal, not the
+    # best one (the meshes' split costs a quality evaluation per quad).
+    if model.quads.shape[1] == 4:
+        model = SurfaceModel(model.nodes, np.concatenate([model.quads[:, :3], model.quads[:, [0, 2, 3]]]),
+                             np.concatenate([model.regions, model.regions]))
+    block_tri, owner = model.block_faces()
+    ground_tri = model.interface(GROUND_REGION, AIR_REGION)
     faces = np.concatenate([block_tri, ground_tri])
-    p = tri.nodes[faces]
+    p = model.nodes[faces]
     normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    length = np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
+    # Only the faces turned to the viewer are coloured and drawn.
     facing = np.flatnonzero(normal @ eye > 0)
+    p, normal = p[facing], normal[facing]
+    on_block = facing < len(block_tri)
+    owner = owner[facing[on_block]]
     ids = np.array(sorted(height_of_block), dtype=np.int64)
     values = np.array([height_of_block[i] for i in ids.tolist()], dtype=np.float64)
     at = np.minimum(np.searchsorted(ids, owner), max(len(ids) - 1, 0))
     heights = np.where(ids[at] == owner, values[at], 0.0) if len(ids) else np.zeros(len(owner))
-    colours = np.empty((len(faces), 4))
-    colours[: len(block_tri)] = cm.viridis(np.clip(heights / max(vmax, 1e-9), 0, 1))
-    colours[len(block_tri):] = (0.78, 0.76, 0.70, 1.0)
+    colours = np.empty((len(facing), 4))
+    colours[on_block] = cm.viridis(np.clip(heights / max(vmax, 1e-9), 0, 1))
+    colours[~on_block] = (0.78, 0.76, 0.70, 1.0)
+    length = np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
     colours[:, :3] *= (0.55 + 0.45 * np.clip((normal @ np.array([0.3, 0.5, 0.8])) / length, 0, 1))[:, None]
     # View coordinates: across, up, and depth towards the eye.
-    view = p[facing] @ np.column_stack([right, up, eye])
-    image, extent = _rasterised(view, colours[facing])
+    image, extent = _rasterised(p @ np.column_stack([right, up, eye]), colours)
     ax.imshow(image, origin="lower", extent=extent, interpolation="nearest")
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
@@ -140,6 +148,7 @@ def _fill_specks(image: np.ndarray) -> np.ndarray:
     return filled
 
 
+@reusing_freed_memory()
 def write_preview(path: str | Path, panels: list[tuple[SurfaceModel, str]],
                   block_heights: dict[int, float]) -> Path:
     """Draw one or more models side by side (e.g. voxels, then the final mesh).
