@@ -232,9 +232,9 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     # Entity boxes: of each patch's nodes, and of each shell's patches.
     order = np.argsort(patch, kind="stable")
     bounds = np.searchsorted(patch[order], np.arange(n_patches + 1))
-    corners = world[faces[order]]
-    patch_lower = np.minimum.reduceat(corners.min(axis=1), bounds[:-1])
-    patch_upper = np.maximum.reduceat(corners.max(axis=1), bounds[:-1])
+    corners = [world[faces[order, c]] for c in range(3)]  # (F, 3) each: no reduction over an axis of 3
+    patch_lower = np.minimum.reduceat(np.minimum(np.minimum(corners[0], corners[1]), corners[2]), bounds[:-1])
+    patch_upper = np.maximum.reduceat(np.maximum(np.maximum(corners[0], corners[1]), corners[2]), bounds[:-1])
     del corners
     shell_start = np.searchsorted(shell_of, np.arange(len(bounding)))
     shell_lower = np.minimum.reduceat(patch_lower[patch_of], shell_start)
