@@ -34,7 +34,7 @@ import numpy as np
 
 from .errors import UrbanvoxError
 from .heap import reusing_freed_memory
-from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel
+from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel, rank_in, unique_pairs
 
 MESH_FORMATS = (".obj", ".stl", ".ply", ".vtu", ".msh")
 #: Rows formatted at a time (one call of the ``%`` operator).
@@ -183,14 +183,14 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     faces = model.quads.copy()
     flip = model.regions[:, 0] > model.regions[:, 1]
     faces[flip] = faces[flip, ::-1]
-    interfaces, which = _unique_pairs(pairs)
+    interfaces, which = unique_pairs(pairs)
     n_nodes = len(world)
     # Surface entities: connected patches of every interface, all at once:
     # faces linked through an (interface, node) they share, numbered in the
     # order of the faces sorted by interface.
     face_order = np.argsort(which, kind="stable")
     k = faces.shape[1]
-    patch_sorted, vertex, vertex_patch = _linked_parts(
+    patch_sorted, pair, pair_patch = _linked_parts(
         np.repeat(np.arange(len(faces)), k), np.repeat(which[face_order], k), faces[face_order].ravel(),
         len(faces), n_nodes)
     patch = np.empty(len(faces), dtype=np.int64)
@@ -205,22 +205,20 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     # and then first face.
     regions = _regions(model)
     ids = np.asarray(regions, dtype=np.int64)
-    by_id = np.argsort(ids)
-    at = np.minimum(np.searchsorted(ids[by_id], interfaces), max(len(ids) - 1, 0))
-    side_rank = np.where(ids[by_id][at] == interfaces, by_id[at], -1) if len(ids) else np.full(interfaces.shape, -1)
+    side_rank = rank_in(interfaces, ids)
     item_rank = side_rank[patch_interface].T.ravel()             # side 0 of every patch, then side 1
     item_patch = np.tile(np.arange(n_patches), 2)
     real = np.flatnonzero(item_rank >= 0)
     items = real[np.lexsort((first_face[item_patch[real]], item_rank[real]))]
     item_of = np.full(2 * n_patches, -1, dtype=np.int64)
     item_of[items] = np.arange(len(items))
-    vertex_interface, vertex_node = vertex // n_nodes, vertex % n_nodes
-    link_side = np.concatenate([np.zeros(len(vertex), np.int64), np.ones(len(vertex), np.int64)])
-    link_rank = side_rank[np.tile(vertex_interface, 2), link_side]
-    link_item = item_of[link_side * n_patches + np.tile(vertex_patch, 2)]
+    pair_interface, pair_node = pair // n_nodes, pair % n_nodes
+    link_side = np.concatenate([np.zeros(len(pair), np.int64), np.ones(len(pair), np.int64)])
+    link_rank = side_rank[np.tile(pair_interface, 2), link_side]
+    link_item = item_of[link_side * n_patches + np.tile(pair_patch, 2)]
     on_region = link_rank >= 0
     shell, _, _ = _linked_parts(link_item[on_region], link_rank[on_region],
-                                np.tile(vertex_node, 2)[on_region], len(items), n_nodes)
+                                np.tile(pair_node, 2)[on_region], len(items), n_nodes)
     item_rank, item_patch = item_rank[items], item_patch[items]
     shell_region = ids[item_rank[np.unique(shell, return_index=True)[1]]]
     # The patches of each shell, ascending, and whether the shell's region is
@@ -277,18 +275,6 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
 def _box(lower: np.ndarray, upper: np.ndarray) -> str:
     return (f"{lower[0]:.4f} {lower[1]:.4f} {lower[2]:.4f} "
             f"{upper[0]:.4f} {upper[1]:.4f} {upper[2]:.4f}")
-
-
-def _unique_pairs(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(pairs, axis=0, return_inverse=True)`` of (F, 2) small
-    integers, by one key per row (a sort of F numbers instead of F rows)."""
-    if len(pairs) == 0:
-        return pairs.reshape(0, 2), np.zeros(0, dtype=np.int64)
-    low = pairs.min()
-    span = int(pairs.max()) - int(low) + 1
-    keys, which = np.unique((pairs[:, 0] - low).astype(np.int64) * span + (pairs[:, 1] - low),
-                            return_inverse=True)
-    return np.column_stack([keys // span, keys % span]) + low, which.ravel()
 
 
 def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items: int,

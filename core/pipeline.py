@@ -199,7 +199,7 @@ class Reconstruction:
     def ground_surface_wkb(self, tile: int = 64) -> list[bytes]:
         """The terrain (ground/air faces) as MultiPolygonZ WKB, one per tile of
         ``tile`` x ``tile`` columns so that no feature is city-sized."""
-        from .surface import AIR_REGION, GROUND_REGION
+        from .surface import AIR_REGION, GROUND_REGION, unique_pairs
         from .wkb import multipolygons_z
 
         model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh_triangles
@@ -209,8 +209,7 @@ class Reconstruction:
         nodes = self.grid.to_world(model.nodes)
         centre = model.nodes[faces].mean(axis=1)
         key = np.floor((centre[:, :2] - self.grid.origin[:2]) / (tile * self.grid.voxel_size)).astype(np.int64)
-        _, index = np.unique(key, axis=0, return_inverse=True)
-        index = index.ravel()
+        index = unique_pairs(key)[1]
         order = np.argsort(index, kind="stable")
         rings = nodes[faces[order]]
         rings = np.concatenate([rings, rings[:, :1]], axis=1)

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .heap import reusing_freed_memory
-from .surface import AIR_REGION, GROUND_REGION, SurfaceModel
+from .surface import AIR_REGION, GROUND_REGION, SurfaceModel, rank_in
 
 #: Viewer direction (from the scene towards the eye): south-west, 35 degrees up.
 _AZIMUTH, _ELEVATION = np.radians(-120.0), np.radians(35.0)
@@ -53,10 +53,9 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     p, normal = p[facing], normal[facing]
     on_block = facing < len(block_tri)
     owner = owner[facing[on_block]]
-    ids = np.array(sorted(height_of_block), dtype=np.int64)
-    values = np.array([height_of_block[i] for i in ids.tolist()], dtype=np.float64)
-    at = np.minimum(np.searchsorted(ids, owner), max(len(ids) - 1, 0))
-    heights = np.where(ids[at] == owner, values[at], 0.0) if len(ids) else np.zeros(len(owner))
+    values = np.array(list(height_of_block.values()), dtype=np.float64)
+    rank = rank_in(owner, list(height_of_block))
+    heights = np.where(rank >= 0, values[rank], 0.0) if len(values) else np.zeros(len(owner))
     colours = np.empty((len(facing), 4))
     colours[on_block] = cm.viridis(np.clip(heights / max(vmax, 1e-9), 0, 1))
     colours[~on_block] = (0.78, 0.76, 0.70, 1.0)

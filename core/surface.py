@@ -165,17 +165,12 @@ class SurfaceModel:
         m = len(self.quads)
         if len(wanted) == 0 or m == 0:
             return self.quads[:0].copy(), np.zeros(0, dtype=np.int32)
-        # Rank of every wanted region in the order asked for, -1 for the others.
-        ids = np.unique(wanted)
-        rank_of_id = np.full(len(ids), -1, dtype=np.int64)
-        rank_of_id[np.searchsorted(ids, wanted)] = np.arange(len(wanted))
         # Face f's two sides are entries 2 f and 2 f + 1: in entry order each
         # region meets its faces in face order (a face has two different
         # regions), so a stable sort on the rank alone gives, per region, the
         # faces of closed_surface in its order. Small ranks sort by radix.
         side_region = self.regions.ravel().astype(np.int64)
-        at = np.minimum(np.searchsorted(ids, side_region), len(ids) - 1)
-        rank = np.where(ids[at] == side_region, rank_of_id[at], -1)
+        rank = rank_in(side_region, wanted)
         entry = np.flatnonzero(rank >= 0)
         key = rank[entry].astype(np.int16 if len(wanted) <= np.iinfo(np.int16).max else np.int64)
         entry = entry[np.argsort(key, kind="stable")]
@@ -205,6 +200,44 @@ class SurfaceModel:
         ids = self.regions.ravel()
         ids = ids[ids > 0]
         return np.bincount(ids, minlength=n_blocks + 1)[1:]
+
+
+def rank_in(values: np.ndarray, wanted: Sequence[int]) -> np.ndarray:
+    """The index in ``wanted`` (distinct ids) of every value, -1 for values not in it.
+
+    Examples
+    --------
+    >>> rank_in(np.array([[7, -1], [3, 5]]), [5, 7, -1]).tolist()
+    [[1, 2], [-1, 0]]
+    """
+    wanted = np.asarray(wanted, dtype=np.int64)
+    values = np.asarray(values)
+    if len(wanted) == 0:
+        return np.full(values.shape, -1, dtype=np.int64)
+    order = np.argsort(wanted)
+    ordered = wanted[order]
+    at = np.minimum(np.searchsorted(ordered, values), len(wanted) - 1)
+    return np.where(ordered[at] == values, order[at], -1)
+
+
+def unique_pairs(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(pairs, axis=0, return_inverse=True)`` of (F, 2) small
+    integers (region pairs, tile coordinates), by one key per row: a sort of
+    F numbers instead of F rows.
+
+    Examples
+    --------
+    >>> rows, inverse = unique_pairs(np.array([[1, -2], [-1, 3], [1, -2]]))
+    >>> rows.tolist(), inverse.tolist()
+    ([[-1, 3], [1, -2]], [1, 0, 1])
+    """
+    if len(pairs) == 0:
+        return pairs.reshape(0, 2), np.zeros(0, dtype=np.int64)
+    low = pairs.min()
+    span = int(pairs.max()) - int(low) + 1
+    keys, which = np.unique((pairs[:, 0] - low).astype(np.int64) * span + (pairs[:, 1] - low),
+                            return_inverse=True)
+    return np.column_stack([keys // span, keys % span]) + low, which.ravel()
 
 
 def _unique_nodes(flat: np.ndarray, n_lattice: int) -> tuple[np.ndarray, np.ndarray]:
