@@ -21,10 +21,11 @@ everything is written as JSON to ``benchmarks/results/``.
 Stage names: the pipeline's laps (``core.pipeline.reconstruct_points``) are grid, ground
 (ground level and, inside it, the voxel binning of the building points: ``voxelise``,
 timed apart on the same points), classify, blocks, eliminate (elimination), surface
-(surfaces), smooth (smoothing), project (projection), measure; read and export (PLY, part
-of end to end; then gmsh .msh, the finite-element format, timed apart) are timed around them. Rates: read in points read (mesh: triangles), grid/ground in points,
-voxelise in building points, the voxel stages in voxels of the grid(s), and smoothing,
-projection, measure and export in faces (quads) of the surface.
+(surfaces), smooth (smoothing), project (projection), measure; read and export are timed
+around them: a PLY, part of end to end, then apart the gmsh .msh, the finite-element format
+(the mesh triangulated for the PLY serves it too). Rates: read in points read (mesh:
+triangles), grid/ground in points, voxelise in building points, the voxel stages in voxels
+of the grid(s), and smoothing, projection, measure and export in faces (quads) of the surface.
 """
 from __future__ import annotations
 

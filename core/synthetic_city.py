@@ -70,13 +70,13 @@ def make_residential(seed: int = 0) -> District:
                 kind = "gable"
             name = f"house_{i}_{j}"
             parts.append(Part(name, x0 + L / 2, y0 + W / 2, max(L, W), min(L, W), float(h),
-                               float(rise) if kind != "flat" else 0.0, str(kind),
-                               0 if long_x else 90, floor))
+                              float(rise) if kind != "flat" else 0.0, str(kind),
+                              0 if long_x else 90, floor))
             free = HOUSE_SLOT * i + 3 + room - (x0 + L)  # slot room east of the house
             if annex and free >= 3.0:
                 a, wa = np.floor(min(free, 6.0) * 2) / 2, np.floor(W) / 2
                 parts.append(Part(name, x0 + L + a / 2, y0 + wa / 2, a, wa,
-                                   float(max(3.0, np.floor(h) / 2))))
+                                  float(max(3.0, np.floor(h) / 2))))
     corners = rng.choice((slots - 1) ** 2, 12, replace=False)
     trees = np.column_stack([HOUSE_SLOT * (1 + corners // (slots - 1)),
                              HOUSE_SLOT * (1 + corners % (slots - 1)),
