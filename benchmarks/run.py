@@ -22,8 +22,8 @@ Stage names: the pipeline's laps (``core.pipeline.reconstruct_points``) are grid
 (ground level and, inside it, the voxel binning of the building points: ``voxelise``,
 timed apart on the same points), classify, blocks, eliminate (elimination), surface
 (surfaces), smooth (smoothing), project (projection), measure; read and export are timed
-around them: a PLY, part of end to end, then apart the gmsh .msh, the finite-element format
-(the mesh triangulated for the PLY serves it too). Rates: read in points read (mesh:
+around them: a PLY, part of end to end, then apart the gmsh .msh, the finite-element format,
+as text and in binary (the mesh triangulated for the PLY serves them too). Rates: read in points read (mesh:
 triangles), grid/ground in points, voxelise in building points, the voxel stages in voxels
 of the grid(s), and smoothing, projection, measure and export in faces (quads) of the surface.
 """
@@ -46,15 +46,16 @@ RESULTS = Path(__file__).resolve().parent / "results"
 CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "urbanvox-bench"
 
 STAGES = ["read", "sample", "grid", "ground", "classify", "blocks", "eliminate", "surface", "smooth",
-          "project", "measure", "export", "export_msh"]
+          "project", "measure", "export", "export_msh", "export_msh_binary"]
 #: The issue's names for the pipeline's laps.
 STAGE_NAMES = {"ground": "ground+voxelise", "eliminate": "elimination", "surface": "surfaces",
-               "smooth": "smoothing", "project": "projection", "export_msh": "gmsh .msh"}
+               "smooth": "smoothing", "project": "projection", "export_msh": "gmsh .msh",
+               "export_msh_binary": "binary .msh"}
 #: What a stage's rate counts.
 RATE_UNIT = {"read": "read", "sample": "points", "grid": "points", "ground": "points",
              "classify": "voxels", "blocks": "voxels", "eliminate": "voxels", "surface": "voxels",
              "smooth": "faces", "project": "faces", "measure": "faces", "export": "faces",
-             "export_msh": "faces"}
+             "export_msh": "faces", "export_msh_binary": "faces"}
 #: Functions whose pyinstrument subtree is a stage (``--profile``).
 STAGE_FUNCTIONS = {"read": {"read_point_clouds", "read_triangles"}, "sample": {"sample_thinned"},
                    "ground": {"column_ground_level", "occupied_cells"}, "classify": {"classify_voxels"},
@@ -173,6 +174,9 @@ def run_case(spec: dict) -> dict:
         lap = time.perf_counter()
         result.write_mesh(Path(tmp) / "mesh.msh")
         stages["export_msh"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
+        lap = time.perf_counter()
+        result.write_mesh(Path(tmp) / "mesh_binary.msh", binary=True)
+        stages["export_msh_binary"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
     report["pipeline_s"] = pipeline_s
     report["peak_rss_mb"] = _rss_mb()
     report["blocks"] = int(len(result.blocks))
@@ -345,7 +349,7 @@ def print_case(name: str, voxel: float, r: dict) -> None:
 
 def print_summary(rows: list[dict]) -> None:
     cols = ["read", "ground", "classify", "blocks", "eliminate", "surface", "smooth", "project", "export",
-            "export_msh"]
+            "export_msh", "export_msh_binary"]
     print("\nSummary (seconds; fast binning in M pts/s, ratios = baseline time / ours)")
     head = (f"{'case':<22} {'e2e':>7} " + " ".join(f"{STAGE_NAMES.get(c, c)[:9]:>9}" for c in cols)
             + f" {'RSS MB':>7} {'fastMp/s':>8} {'xO3D':>6} {'xuniq':>6} {'scipy':>6} {'skimg':>6} {'copyGB/s':>8}")

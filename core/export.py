@@ -14,11 +14,12 @@ neighbouring regions share their nodes and triangles in every format:
 ``.vtu``     ParaView: every interface face once, with ``region_a`` /
              ``region_b`` (the two regions, normal from a into b) and
              ``block_id`` cell data (meshio)
-``.msh``     gmsh 4.1: a physical surface per interface (``block_3|air``,
-             ``ground|air``, ...) and a physical volume per region
-             (``block_3``, ``ground``, ``air``); entities are the connected
-             patches of the interfaces and the closed shells of the regions
-             they bound, so a volume mesher or solver can tag every boundary
+``.msh``     gmsh 4.1, text or binary: a physical surface per interface
+             (``block_3|air``, ``ground|air``, ...) and a physical volume
+             per region (``block_3``, ``ground``, ``air``); entities are the
+             connected patches of the interfaces and the closed shells of
+             the regions they bound, so a volume mesher or solver can tag
+             every boundary
 ===========  ==============================================================
 
 Coordinates are world coordinates (the CRS of the input). Files are
@@ -28,6 +29,7 @@ never leaves a partial file.
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -47,7 +49,7 @@ def region_name(region: int) -> str:
 
 
 @reusing_freed_memory()
-def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray) -> Path:
+def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray, binary: bool = False) -> Path:
     """Write the model's regions to ``path``; the suffix picks the format.
 
     Parameters
@@ -57,11 +59,17 @@ def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray) -> Pat
         Final (smoothed, projected) model, local coordinates.
     offset : ndarray (3,)
         Added to the node coordinates (local -> world).
+    binary : bool
+        Write a ``.msh`` in gmsh's binary encoding: the same content,
+        several times faster to write and read on a city, and exact
+        coordinates. The other formats have one encoding each (PLY binary,
+        VTU as meshio writes it, OBJ and STL text: a binary STL cannot name
+        its solids) and ignore it.
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    writers = {".obj": _write_obj, ".stl": _write_stl, ".ply": _write_ply,
-               ".vtu": _write_vtu, ".msh": _write_msh}
+    writers = {".obj": _write_obj, ".stl": _write_stl, ".ply": _write_ply, ".vtu": _write_vtu,
+               ".msh": lambda path, model, world: _write_msh(path, model, world, binary)}
     if suffix not in writers:
         raise UrbanvoxError(f"Unknown mesh format '{suffix}': use one of {', '.join(MESH_FORMATS)}.")
     tri = model.triangulated()
@@ -170,8 +178,28 @@ def _write_vtu(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     meshio.write(str(path), mesh, file_format="vtu")
 
 
-def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
-    """gmsh 4.1 ASCII with the entity topology: interfaces bound the regions.
+@dataclass
+class _MshTopology:
+    """What a gmsh file says beyond nodes and faces: its entities and groups.
+
+    Surface entity ``p + 1`` is patch ``p`` (a connected piece of one
+    interface), volume entity ``v + 1`` is shell ``v`` (a closed piece of one
+    region's boundary).
+    """
+
+    faces: np.ndarray            #: (F, 3) node indices, each face oriented from its lower region id
+    names: list[str]             #: ``$PhysicalNames`` lines: ``2 s "block_3|air"``, ``3 v "block_3"``
+    patch_physical: np.ndarray   #: (S,) physical surface (interface) tag of every patch
+    patch_box: np.ndarray        #: (S, 6) lower and upper corner of every patch
+    shell_physical: np.ndarray   #: (V,) physical volume (region) tag of every shell
+    shell_box: np.ndarray        #: (V, 6)
+    bounding: list[np.ndarray]   #: signed surface tags bounding every shell (+: normal out of it)
+    face_order: np.ndarray       #: (F,) faces by patch
+    patch_start: np.ndarray      #: (S + 1,) patch ``p`` has ``face_order[patch_start[p]:patch_start[p + 1]]``
+
+
+def _msh_topology(model: SurfaceModel, world: np.ndarray) -> _MshTopology:
+    """The gmsh entities: interfaces bound the regions.
 
     A gmsh entity must be connected, so every interface is split into its
     connected patches and every region into its closed shells (one per
@@ -220,7 +248,8 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     shell, _, _ = _linked_parts(link_item[on_region], link_rank[on_region],
                                 np.tile(pair_node, 2)[on_region], len(items), n_nodes)
     item_rank, item_patch = item_rank[items], item_patch[items]
-    shell_region = ids[item_rank[np.unique(shell, return_index=True)[1]]]
+    shell_rank = item_rank[np.unique(shell, return_index=True)[1]]
+    shell_region = ids[shell_rank]
     # The patches of each shell, ascending, and whether the shell's region is
     # their interface's first (normal out of it: +) or second region.
     by_shell = np.lexsort((item_patch, shell))
@@ -238,43 +267,101 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     shell_lower = np.minimum.reduceat(patch_lower[patch_of], shell_start)
     shell_upper = np.maximum.reduceat(patch_upper[patch_of], shell_start)
 
-    physical_region = {r: i + 1 for i, r in enumerate(regions)}
+    # Physical surfaces are the interfaces (tag = rank + 1), physical volumes the regions.
     names = []
     for s, (ra, rb) in enumerate(interfaces, start=1):
         label = region_name(int(rb)) if ra == OUTSIDE_REGION else f"{region_name(int(ra))}|{region_name(int(rb))}"
         names.append(f'2 {s} "{label}"')
-    for r, v in physical_region.items():
-        names.append(f'3 {v} "{region_name(r)}"')
+    names += [f'3 {v} "{region_name(r)}"' for v, r in enumerate(regions, start=1)]
+    return _MshTopology(faces=faces, names=names, patch_physical=patch_interface + 1,
+                        patch_box=np.hstack([patch_lower, patch_upper]), shell_physical=shell_rank + 1,
+                        shell_box=np.hstack([shell_lower, shell_upper]), bounding=bounding,
+                        face_order=order, patch_start=bounds)
+
+
+def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray, binary: bool = False) -> None:
+    """gmsh 4.1, ASCII or binary, with the entity topology of :func:`_msh_topology`.
+
+    All nodes are in one block on the first surface entity: node tags are
+    global in gmsh, and each shared node is stored once. Element tags are
+    face indices + 1, the elements of a patch in one block.
+    """
+    topology = _msh_topology(model, world)
+    (_write_msh_binary if binary else _write_msh_ascii)(path, topology, world)
+
+
+def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> None:
+    t = topology
+    n_nodes, n_faces, n_patches = len(world), len(t.faces), len(t.patch_physical)
     lines = ["$MeshFormat", "4.1 0 8", "$EndMeshFormat",
-             "$PhysicalNames", str(len(names)), *names, "$EndPhysicalNames",
-             "$Entities", f"0 0 {n_patches} {len(bounding)}"]
-    for p, i in enumerate(patch_interface.tolist(), start=1):
-        lines.append(f"{p} {_box(patch_lower[p - 1], patch_upper[p - 1])} 1 {i + 1} 0")
-    for v, tags in enumerate(bounding, start=1):
-        region = physical_region[int(shell_region[v - 1])]
-        lines.append(f"{v} {_box(shell_lower[v - 1], shell_upper[v - 1])} 1 {region} {len(tags)} "
-                     + " ".join(map(str, tags.tolist())))
+             "$PhysicalNames", str(len(t.names)), *t.names, "$EndPhysicalNames",
+             "$Entities", f"0 0 {n_patches} {len(t.bounding)}"]
+    for p, physical in enumerate(t.patch_physical.tolist(), start=1):
+        lines.append(f"{p} {_box(t.patch_box[p - 1])} 1 {physical} 0")
+    for v, (physical, tags) in enumerate(zip(t.shell_physical.tolist(), t.bounding), start=1):
+        lines.append(f"{v} {_box(t.shell_box[v - 1])} 1 {physical} {len(tags)} " + " ".join(map(str, tags.tolist())))
     lines.append("$EndEntities")
-    # All nodes in one block on the first surface entity: node tags are
-    # global in gmsh, and each shared node is stored once.
     lines += ["$Nodes", f"1 {n_nodes} 1 {n_nodes}", f"2 1 0 {n_nodes}"]
     with open(path, "w", encoding="ascii") as out:
         out.write("\n".join(lines) + "\n")
         _write_rows(out, "%d", np.arange(1, n_nodes + 1)[:, None])
         _write_rows(out, "%.4f %.4f %.4f", world)
         out.write("$EndNodes\n$Elements\n")
-        out.write(f"{n_patches} {len(faces)} 1 {len(faces)}\n")
-        row_format = " ".join(["%d"] * (faces.shape[1] + 1))
+        out.write(f"{n_patches} {n_faces} 1 {n_faces}\n")
+        row_format = " ".join(["%d"] * (t.faces.shape[1] + 1))
         for p in range(n_patches):
-            members = order[bounds[p]:bounds[p + 1]]
+            members = t.face_order[t.patch_start[p]:t.patch_start[p + 1]]
             out.write(f"2 {p + 1} 2 {len(members)}\n")
-            _write_rows(out, row_format, np.column_stack([members + 1, faces[members] + 1]))
+            _write_rows(out, row_format, np.column_stack([members + 1, t.faces[members] + 1]))
         out.write("$EndElements\n")
 
 
-def _box(lower: np.ndarray, upper: np.ndarray) -> str:
-    return (f"{lower[0]:.4f} {lower[1]:.4f} {lower[2]:.4f} "
-            f"{upper[0]:.4f} {upper[1]:.4f} {upper[2]:.4f}")
+def _write_msh_binary(path: Path, topology: _MshTopology, world: np.ndarray) -> None:
+    """The same file in gmsh's binary encoding: little-endian ``int`` (4
+    bytes), ``size_t`` (8) and ``double``; coordinates are written exactly,
+    not rounded to 0.1 mm as in the text."""
+    t = topology
+    n_nodes, n_faces, n_patches = len(world), len(t.faces), len(t.patch_physical)
+    size_t = np.dtype("<u8")
+    # An entity's head: tag, box, one physical tag, the number of bounding
+    # entities (none for a surface; a volume's follow its head).
+    head = np.dtype([("tag", "<i4"), ("box", "<f8", (6,)), ("n_physical", size_t), ("physical", "<i4"),
+                     ("n_bounding", size_t)])
+    surfaces = np.zeros(n_patches, dtype=head)
+    surfaces["tag"] = np.arange(1, n_patches + 1)
+    surfaces["box"] = t.patch_box
+    surfaces["n_physical"] = 1
+    surfaces["physical"] = t.patch_physical
+    with open(path, "wb") as out:
+        out.write(b"$MeshFormat\n4.1 1 8\n" + np.array(1, "<i4").tobytes() + b"\n$EndMeshFormat\n")
+        out.write(("\n".join(["$PhysicalNames", str(len(t.names)), *t.names, "$EndPhysicalNames"]) + "\n")
+                  .encode("ascii"))
+        out.write(b"$Entities\n" + np.array([0, 0, n_patches, len(t.bounding)], size_t).tobytes())
+        out.write(surfaces.tobytes())
+        for v, (physical, tags) in enumerate(zip(t.shell_physical.tolist(), t.bounding), start=1):
+            out.write(np.array((v, t.shell_box[v - 1], 1, physical, len(tags)), dtype=head).tobytes())
+            out.write(tags.astype("<i4").tobytes())
+        out.write(b"\n$EndEntities\n$Nodes\n")
+        out.write(np.array([1, n_nodes, 1, n_nodes], size_t).tobytes())
+        out.write(np.array([2, 1, 0], "<i4").tobytes() + np.array(n_nodes, size_t).tobytes())
+        out.write(np.arange(1, n_nodes + 1, dtype=size_t).tobytes())
+        out.write(np.ascontiguousarray(world, dtype="<f8").tobytes())
+        out.write(b"\n$EndNodes\n$Elements\n")
+        out.write(np.array([n_patches, n_faces, 1, n_faces], size_t).tobytes())
+        # Rows (tag, node, node, node) of the faces in patch order, a patch's rows in one piece.
+        rows = np.empty((n_faces, t.faces.shape[1] + 1), dtype=size_t)
+        rows[:, 0] = t.face_order + 1
+        rows[:, 1:] = t.faces[t.face_order] + 1
+        for p in range(n_patches):
+            start, stop = t.patch_start[p], t.patch_start[p + 1]
+            out.write(np.array([2, p + 1, 2], "<i4").tobytes() + np.array(stop - start, size_t).tobytes())
+            out.write(rows[start:stop].data)
+        out.write(b"\n$EndElements\n")
+
+
+def _box(box: np.ndarray) -> str:
+    """An entity's box (lower corner, upper corner) as gmsh's text has it."""
+    return " ".join(f"{value:.4f}" for value in box.tolist())
 
 
 def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items: int,
@@ -292,7 +379,7 @@ def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items
     part : ndarray of int (n_items,)
         Part of every item, numbered in the order of their first item.
     pair : ndarray of int64 (V,)
-        The distinct pairs, as ``group * n_nodes + node``, ascending.
+        The distinct pairs, as ``group * n_nodes + node``.
     pair_part : ndarray of int (V,)
         The part of each pair.
 
@@ -306,16 +393,42 @@ def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items
     >>> part.tolist(), len(pair)
     ([0, 0, 1], 8)
     """
-    from scipy.sparse import coo_matrix
+    from scipy.sparse import csr_matrix
     from scipy.sparse.csgraph import connected_components
 
-    pair, vertex = np.unique(group.astype(np.int64) * n_nodes + node, return_inverse=True)
-    size = n_items + len(pair)
+    # Most nodes are in one group only (inside an interface, away from the
+    # lines where regions meet): their pair is the node itself. Only the
+    # links at the other nodes are numbered by a sort (of all the links, it
+    # took most of the time on a city).
+    node_group = np.zeros(n_nodes, dtype=np.int64)
+    node_group[node] = group  # any one of each node's groups
+    mixed = np.zeros(n_nodes, dtype=bool)
+    mixed[node[group != node_group[node]]] = True
+    at_mixed = np.flatnonzero(mixed[node])
+    mixed_pair, mixed_vertex = np.unique(group[at_mixed].astype(np.int64) * n_nodes + node[at_mixed],
+                                         return_inverse=True)
+    vertex = node.astype(np.int64)  # pair vertices: the nodes, then the mixed pairs
+    vertex[at_mixed] = n_nodes + mixed_vertex.ravel()
+    size = n_items + n_nodes + len(mixed_pair)
     # Items and pairs in one bipartite graph; the items are its first
     # vertices, so its parts are numbered in the order of their first item.
-    graph = coo_matrix((np.ones(len(item), np.int8), (item, n_items + vertex.ravel())), shape=(size, size))
+    # Built as the float CSR matrix the search works on (a conversion would
+    # copy it); links sorted by item (a face's corners) are its rows as they are.
+    ones = np.ones(len(item))
+    if np.all(item[1:] >= item[:-1]):
+        indptr = np.full(size + 1, len(item), dtype=np.int64)
+        indptr[0] = 0
+        indptr[1:n_items + 1] = np.cumsum(np.bincount(item, minlength=n_items))
+        graph = csr_matrix((ones, n_items + vertex, indptr), shape=(size, size))
+    else:
+        graph = csr_matrix((ones, (item, n_items + vertex)), shape=(size, size))
     _, labels = connected_components(graph, directed=False)
-    return labels[:n_items], pair, labels[n_items:]
+    plain = np.zeros(n_nodes, dtype=bool)
+    plain[node] = True
+    plain = np.flatnonzero(plain & ~mixed)
+    pair = np.concatenate([node_group[plain] * n_nodes + plain, mixed_pair])
+    pair_part = np.concatenate([labels[n_items + plain], labels[n_items + n_nodes:]])
+    return labels[:n_items], pair, pair_part
 
 
 def _write_rows(out, row_format: str, rows: np.ndarray) -> None:

@@ -220,11 +220,12 @@ class Reconstruction:
         """``mesh`` with every quad split along its best diagonal, once for all outputs."""
         return self.mesh.triangulated()
 
-    def write_mesh(self, path) -> "Path":
-        """Write the final conforming mesh; the suffix picks the format (:mod:`core.export`)."""
+    def write_mesh(self, path, binary: bool = False) -> "Path":
+        """Write the final conforming mesh; the suffix picks the format, ``binary``
+        the encoding of a ``.msh`` (:func:`core.export.write_mesh`)."""
         from .export import write_mesh
 
-        return write_mesh(path, self.mesh_triangles, self.grid.offset)
+        return write_mesh(path, self.mesh_triangles, self.grid.offset, binary=binary)
 
     def write_preview(self, path, before_after: bool = True) -> "Path":
         """PNG picture, blocks coloured by height; voxels beside the final mesh."""

@@ -14,14 +14,14 @@ def run(*args):
 
 def test_point_cloud_in_tiles_writes_mesh_and_report(district, tmp_path):
     x0, y0, x1, y1 = district.district.extent
-    report, mesh = tmp_path / "report.json", tmp_path / "district.obj"
+    report, mesh = tmp_path / "report.json", tmp_path / "district.msh"
     done = run(district.laz, "--voxel-size", 2, "--extent", x0, y0, x1, y1, "--tile-size", 100,
-               "--mesh", mesh, "--report", report, "--quiet")
+               "--mesh", mesh, "--binary-msh", "--report", report, "--quiet")
     assert done.returncode == 0, done.stderr
     doc = json.loads(report.read_text())
     assert doc["summary"]["block_count"] == len(doc["blocks"]) >= len(district.expected_blocks) - 3
     assert doc["stats"]["tiles"] == 9
-    assert mesh.stat().st_size > 0
+    assert mesh.read_bytes().startswith(b"$MeshFormat\n4.1 1 8\n")  # binary
     assert f"{doc['summary']['block_count']} blocks" in done.stdout
 
 

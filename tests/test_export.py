@@ -211,3 +211,55 @@ def test_gmsh_entities_match_a_search_per_interface_and_region(district, tmp_pat
     assert surfaces == expected_surfaces
     assert volumes == expected_volumes
     assert sum(region == -1 for region, _ in volumes) == 2  # two ground shells
+
+
+def _gmsh_contents(path):
+    """What gmsh reads from a .msh: names, entities with their groups and
+    boundaries, the elements of every surface, and the nodes by tag."""
+    gmsh = pytest.importorskip("gmsh")
+    gmsh.initialize(["-nt", "1"])
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(str(path))
+        names = sorted((dim, tag, gmsh.model.getPhysicalName(dim, tag))
+                       for dim, tag in gmsh.model.getPhysicalGroups())
+        entities, elements = [], {}
+        for dim, tag in gmsh.model.getEntities():
+            boundary = [t for _, t in gmsh.model.getBoundary([(dim, tag)], combined=False, oriented=True)] \
+                if dim == 3 else []
+            entities.append((dim, tag, list(gmsh.model.getPhysicalGroupsForEntity(dim, tag)), boundary))
+            if dim == 2:
+                types, tags, nodes = gmsh.model.mesh.getElements(dim, tag)
+                elements[tag] = (types.tolist(), [t.tolist() for t in tags], [n.tolist() for n in nodes])
+        node_tags, coords, _ = gmsh.model.mesh.getNodes()
+        order = np.argsort(node_tags)
+        return names, entities, elements, node_tags[order], coords.reshape(-1, 3)[order]
+    finally:
+        gmsh.finalize()
+
+
+def test_binary_msh_reads_as_the_text_one(district, tmp_path):
+    from core.readers.las import read_point_clouds
+
+    # Two district copies: two shells of the ground and the air, several patches per interface.
+    points = read_point_clouds([district.laz])
+    shift = np.array([400.0, 0.0, 0.0])
+    two = reconstruct_points(np.concatenate([points.ground, points.ground + shift]),
+                             np.concatenate([points.building, points.building + shift]), points.crs,
+                             ReconstructionParams(voxel_size=4.0), airborne=True)
+    text = _gmsh_contents(two.write_mesh(tmp_path / "two.msh"))
+    binary_path = two.write_mesh(tmp_path / "two_binary.msh", binary=True)
+    assert binary_path.read_bytes().startswith(b"$MeshFormat\n4.1 1 8\n")
+    binary = _gmsh_contents(binary_path)
+    names, entities, elements, node_tags, coords = binary
+    assert names == text[0] and entities == text[1] and elements == text[2]
+    assert sum(dim == 3 and name == "ground" for dim, _, name in names) == 1
+    assert sum(dim == 3 and groups == [next(t for d, t, n in names if d == 3 and n == "ground")]
+               for dim, _, groups, _ in entities) == 2  # two ground shells
+    assert np.array_equal(node_tags, text[3])
+    # The text rounds coordinates to 0.1 mm; the binary file has them exactly.
+    world = two.mesh_triangles.nodes + two.grid.offset
+    assert np.array_equal(coords, world)
+    assert np.abs(text[4] - world).max() <= 5.0001e-5
+    meshio = pytest.importorskip("meshio")
+    assert sum(len(block.data) for block in meshio.read(binary_path).cells) == len(two.mesh_triangles.quads)

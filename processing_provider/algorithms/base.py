@@ -140,6 +140,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
     TILE_SIZE = "TILE_SIZE"
     WORKERS = "WORKERS"
     SCHEDULER = "SCHEDULER"
+    MESH_BINARY = "MESH_BINARY"
     OUTPUT_BLOCKS = "OUTPUT_BLOCKS"
     OUTPUT_FOOTPRINTS = "OUTPUT_FOOTPRINTS"
     OUTPUT_GROUND = "OUTPUT_GROUND"
@@ -232,6 +233,8 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                                          type=NUMBER_INTEGER, defaultValue=0, minValue=0, maxValue=256),
             QgsProcessingParameterString(self.SCHEDULER, self.tr("Dask scheduler address (default: local workers)"),
                                          optional=True),
+            QgsProcessingParameterBoolean(self.MESH_BINARY, self.tr("Write a .msh mesh file in binary"),
+                                          defaultValue=False),
         ):
             parameter.setFlags(parameter.flags() | FLAG_ADVANCED)
             self.addParameter(parameter)
@@ -290,6 +293,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                    "Python package dask[distributed].",
         "SCHEDULER": "With tiles: the address of a running Dask scheduler (tcp://host:8786) whose workers have "
                      "urbanvox's core importable; overrides the worker count.",
+        "MESH_BINARY": "Write the gmsh mesh file (.msh) in gmsh's binary encoding: the same content, read by "
+                       "gmsh and meshio, written several times faster on a city, and with exact coordinates "
+                       "(the text rounds them to 0.1 mm). The other mesh formats ignore it.",
         "OUTPUT_BLOCKS": "One feature per building block: its closed 3-D surface, with height, areas, volumes, "
                          "mesh quality and distance to the data.",
         "OUTPUT_FOOTPRINTS": "One polygon per building block: the ground it covers, with the same fields.",
@@ -450,7 +456,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         if mesh_path:
             try:
                 step(92.0, self.tr("Writing the mesh {}").format(os.path.basename(mesh_path)))
-                result.write_mesh(mesh_path)
+                result.write_mesh(mesh_path, binary=self.parameterAsBoolean(parameters, self.MESH_BINARY, context))
                 preview = os.path.splitext(mesh_path)[0] + ".png"
                 step(97.0, self.tr("Drawing the preview"))
                 result.write_preview(preview)

@@ -39,15 +39,21 @@ def test_help_describes_the_parameters(qgis_process, alg):
         assert name in proc.stdout
 
 
-def test_run_point_cloud_json_writes_the_geopackage(qgis_process, district, tmp_path):
+def test_run_point_cloud_json_writes_the_geopackage_and_a_binary_msh(qgis_process, district, tmp_path):
     gpkg = tmp_path / "pointcloud.gpkg"
+    mesh = tmp_path / "district.msh"
     proc, report = run_json(
-        qgis_process, "urbanvox:reconstructfrompointcloud", INPUT=district.laz, VOXEL_SIZE=VOXEL, **gpkg_outputs(gpkg)
+        qgis_process, "urbanvox:reconstructfrompointcloud", INPUT=district.laz, VOXEL_SIZE=VOXEL,
+        OUTPUT_MESH=mesh, MESH_BINARY="true", **gpkg_outputs(gpkg)
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     count = report["results"]["BLOCK_COUNT"]
     assert count > 0 and report["results"]["TOTAL_VOLUME"] > 0
     assert gpkg_counts(gpkg) == {"blocks": count, "footprints": count}
+    content = mesh.read_bytes()
+    assert content.startswith(b"$MeshFormat\n4.1 1 8\n") and content.endswith(b"$EndElements\n")
+    names = content.split(b"$PhysicalNames\n")[1].split(b"$EndPhysicalNames")[0].decode().splitlines()[1:]
+    assert sum(name.startswith("3 ") for name in names) == count + 2  # a volume per block, the ground, the air
 
 
 def test_run_mesh_json_writes_the_geopackage(qgis_process, district, tmp_path):

@@ -9,8 +9,8 @@ from qgis_helpers import gpkg_outputs
 REPO_ROOT = Path(__file__).resolve().parents[2]
 ALGORITHMS = {"urbanvox:reconstructfrompointcloud", "urbanvox:reconstructfrommesh"}
 SHARED = ["VOXEL_SIZE", "MIN_HEIGHT", "MIN_FOOTPRINT", "MIN_VOLUME", "EXTENT", "SMOOTHING_ITERATIONS", "PROJECT",
-          "QUALITY_THRESHOLD", "TILE_SIZE", "WORKERS", "SCHEDULER", "OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "OUTPUT_GROUND",
-          "OUTPUT_MESH"]
+          "QUALITY_THRESHOLD", "TILE_SIZE", "WORKERS", "SCHEDULER", "MESH_BINARY", "OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS",
+          "OUTPUT_GROUND", "OUTPUT_MESH"]
 
 
 def algorithm(alg_id):
@@ -91,8 +91,9 @@ def test_point_cloud_parameters(urbanvox_plugin):
     # Several files at once (a tile collection): a multiple-input parameter of files.
     assert alg.parameterDefinition("INPUT").type() == "multilayer"
     assert alg.parameterDefinition("INPUT").layerType() == QgsProcessing.SourceType.TypeFile
-    for name in ("TILE_SIZE", "WORKERS", "SCHEDULER"):
+    for name in ("TILE_SIZE", "WORKERS", "SCHEDULER", "MESH_BINARY"):
         assert alg.parameterDefinition(name).flags() & QgsProcessingParameterDefinition.Flag.FlagAdvanced
+    assert alg.parameterDefinition("MESH_BINARY").defaultValue() is False
     assert alg.parameterDefinition("TILE_SIZE").defaultValue() == 0
     assert alg.parameterDefinition("CRS").flags() & QgsProcessingParameterDefinition.Flag.FlagOptional
     assert alg.parameterDefinition("GROUND_CLASSES").defaultValue() == "2"
