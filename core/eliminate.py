@@ -24,9 +24,12 @@ from .classify import AIR, BUILDING
 from .errors import Cancelled
 from .grid import VoxelGrid
 from .neighbours import search_tree
+from .parallel import row_blocks
 
 #: Candidates examined per face when the quick ball tests cannot decide.
 _CANDIDATES = 16
+#: Faces tested at a time.
+_FACES = 1 << 17
 
 
 def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
@@ -145,6 +148,16 @@ class _SupportTest:
     def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:
         if self.tree is None:
             return np.zeros(len(cells), dtype=bool)
+        # A block of faces at a time: the candidate tables (faces x 16 or 32
+        # neighbours, several arrays of them) stay small, where all the
+        # faces of a city at once took a gigabyte. Each face is tested on
+        # its own, so the blocks give the answers of one pass.
+        supported = np.empty(len(cells), dtype=bool)
+        for block in row_blocks(len(cells), _FACES):
+            supported[block] = self._supported(cells[block], axis[block], sign[block])
+        return supported
+
+    def _supported(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:
         h = self.grid.voxel_size
         centre = self.grid.origin + (cells + 0.5) * h
         centre[np.arange(len(cells)), axis] += sign * 0.5 * h

@@ -37,6 +37,8 @@ from .surface import GROUND_REGION, SurfaceModel
 _NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
 #: Planes fitted per block of rows (temporaries of a few MB).
 _FIT_ROWS = 16384
+#: Nodes whose candidate points are searched at a time.
+_QUERY_ROWS = 1 << 17
 
 
 def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
@@ -103,11 +105,12 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     flat : ndarray of bool (Q,)
         The neighbourhood spans a plane (not a line or a point).
     """
-    dist, idx = nearest(tree, data, at, k)
-
     def fit(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        x = data[idx[rows]]
-        w = np.exp(-(dist[rows] / sigma) ** 2)
+        # The neighbours of a block of rows only: tables of all of them took
+        # hundreds of MB on a city.
+        dist, idx = nearest(tree, data, at[rows], k)
+        x = data[idx]
+        w = np.exp(-(dist / sigma) ** 2)
         w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
         centre = np.einsum("qk,qkc->qc", w, x)
         d = x - centre[:, None, :]
@@ -115,7 +118,8 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
         values, vectors = np.linalg.eigh(cov)
         return centre, vectors, values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
 
-    # Each plane is fitted from its own rows: blocks of rows run on all cores.
+    # Each plane is fitted from its own rows: blocks of rows run on all cores
+    # (the KD-tree searches release the GIL).
     parts = map_blocks(fit, row_blocks(len(at), _FIT_ROWS)) or [fit(slice(0, 0))]
     return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))
 
@@ -170,20 +174,18 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     p = nodes[idx_nodes]
     tree = search_tree(data)
     radius = max_distance * voxel_size
-    dist, near = nearest(tree, data, p, _NEAR, radius)
-    off_line = _distance_to_line(data, near, p, normal)
-    ranked = _ranked(off_line, near, data, _TRIES)
+    candidates = _candidates(tree, data, p, normal, radius, _TRIES, is_cancelled)
     cos_max = np.cos(np.radians(max_angle))
     target = p.copy()
     done = ~usable
-    for attempt in range(ranked.shape[1]):
+    for attempt in range(candidates.shape[1]):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        todo = np.flatnonzero(~done & np.isfinite(off_line[np.arange(len(p)), ranked[:, attempt]]))
+        todo = np.flatnonzero(~done & (candidates[:, attempt] < len(data)))
         if len(todo) == 0:
             break
         # Neighbouring nodes often pick the same data point: one plane per point.
-        chosen, which = np.unique(near[todo, ranked[todo, attempt]], return_inverse=True)
+        chosen, which = np.unique(candidates[todo, attempt], return_inverse=True)
         centre, axes, flat = mls_planes(data, tree, data[chosen], 0.5 * voxel_size, _PLANE_POINTS)
         centre, flat, plane_normal = centre[which], flat[which], axes[which][:, :, 0]
         cos = np.einsum("qc,qc->q", plane_normal, normal[todo])
@@ -206,6 +208,37 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     stats["projected"] = int((wanted & kept).sum())
     stats["refused"] = int((wanted & ~kept).sum())
     return result, stats
+
+
+def _candidates(tree: cKDTree, data: np.ndarray, p: np.ndarray, normal: np.ndarray, radius: float,
+                tries: int, is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
+    """The data points each node tries, best first (step 1 of the module doc).
+
+    Among the ``_NEAR`` data points within ``radius`` of each node ``p``, the
+    ``tries`` closest to the line through it along its ``normal`` (ties by
+    coordinates, :func:`_ranked`).
+
+    The nodes are taken ``_QUERY_ROWS`` at a time: the neighbour tables
+    (nodes x 24 indices, distances, distances to the line, their ranks) are
+    needed only to pick a few points per node, and on a city, all at once,
+    they took gigabytes. Each node's points depend on its own row only.
+
+    Returns
+    -------
+    ndarray of int (Q, min(tries, _NEAR, P))
+        Data point indices; ``len(data)`` where there are fewer points.
+    """
+    k = min(_NEAR, len(data))
+    candidates = np.empty((len(p), min(tries, k)), dtype=np.intp)
+    for rows in row_blocks(len(p), _QUERY_ROWS):
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
+        near = nearest(tree, data, p[rows], _NEAR, radius)[1]
+        off_line = _distance_to_line(data, near, p[rows], normal[rows])
+        ranked = _ranked(off_line, near, data, tries)
+        # A missing neighbour is infinitely far from the line, and its index is len(data).
+        candidates[rows] = np.take_along_axis(near, ranked, axis=1)
+    return candidates
 
 
 def _ranked(off_line: np.ndarray, near: np.ndarray, data: np.ndarray, tries: int) -> np.ndarray:
