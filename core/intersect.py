@@ -70,33 +70,40 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     centre = corner.mean(axis=1)
     reach = _reach(corner, centre)
     # Only the triangles near a focus one take part.
+    del corner
     sub = _near_cells(centre, focus, 2 * reach.max())
-    tri, p = triangles[sub], corner[sub]
+    tri = triangles[sub]
     in_focus = np.zeros(len(triangles), dtype=bool)
     in_focus[focus] = True
     in_focus = in_focus[sub]
-    rows = _pair_rows(p)
+    rows = _pair_rows(nodes, tri)
     found = [none]
     for a, b in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, focus), chunk, is_cancelled):
-        found.append(_crossing_of(a, b, tri, p, rows, in_focus))
+        found.append(_crossing_of(a, b, tri, nodes, rows, in_focus))
     return sub[np.concatenate(found)]
 
 
-def _pair_rows(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _pair_rows(nodes: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper corners of the triangles' boxes as per-axis rows (3, T):
-    the pair filters gather one contiguous row at a time."""
-    lower = np.minimum(np.minimum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
-    upper = np.maximum(np.maximum(p[:, 0], p[:, 1]), p[:, 2]).T.copy()
+    the pair filters gather one contiguous row at a time. Made one axis at a
+    time from the nodes: no (T, 3, 3) table of corners."""
+    lower = np.empty((3, len(tri)))
+    upper = np.empty((3, len(tri)))
+    for c in range(3):
+        x = [nodes[tri[:, j], c] for j in range(3)]
+        lower[c] = np.minimum(np.minimum(x[0], x[1]), x[2])
+        upper[c] = np.maximum(np.maximum(x[0], x[1]), x[2])
     return lower, upper
 
 
-def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, p: np.ndarray,
+def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, nodes: np.ndarray,
                  rows: tuple[np.ndarray, np.ndarray], in_focus: np.ndarray) -> np.ndarray:
     """The candidate pairs ``(a, b)`` that cross, with at least one triangle in
     focus, that one first.
 
-    ``tri`` (T, 3) are node indices, ``p`` (T, 3, 3) corners, ``rows`` from
-    :func:`_pair_rows`.
+    ``tri`` (T, 3) are node indices into ``nodes`` (N, 3), ``rows`` from
+    :func:`_pair_rows`. Corners are gathered only for the pairs left after
+    the cheap filters.
     """
     lower, upper = rows
     keep = in_focus[a] | in_focus[b]
@@ -112,7 +119,8 @@ def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, p: np.ndarray,
         for j in range(3):
             shared |= ta[i] == tb[j]
     a, b = a[~shared], b[~shared]
-    crossing = _edges_cross(p[a], p[b]) | _edges_cross(p[b], p[a])
+    pa, pb = nodes[tri[a]], nodes[tri[b]]
+    crossing = _edges_cross(pa, pb) | _edges_cross(pb, pa)
     a, b = a[crossing], b[crossing]
     swap = ~in_focus[a]
     return np.column_stack([np.where(swap, b, a), np.where(swap, a, b)])
@@ -323,12 +331,12 @@ def _crossing_quads(positions: np.ndarray, quads: np.ndarray, triangles: np.ndar
         split[todo] = True
     # Triangle 2 i + k here is triangle k of quad sub[i].
     tri = triangles[np.column_stack([2 * sub, 2 * sub + 1]).ravel()]
-    p = positions[tri]
     in_focus = moved[tri].any(axis=1)
     if near is not None:
-        mid = p.mean(axis=1)
+        # The centre, as the mean of the three corners (summed in their order).
+        mid = (positions[tri[:, 0]] + positions[tri[:, 1]] + positions[tri[:, 2]]) / 3
         in_focus &= np.all((mid >= near[0]) & (mid <= near[1]), axis=1)
-    rows = _pair_rows(p)
+    rows = _pair_rows(positions, tri)
     first, second = np.array([0, 0, 1, 1]), np.array([0, 1, 0, 1])
     found = [np.zeros((0, 2), dtype=np.int64)]
     for qa, qb in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, seeds), chunk, is_cancelled):
@@ -337,7 +345,7 @@ def _crossing_quads(positions: np.ndarray, quads: np.ndarray, triangles: np.ndar
             # The four triangle pairs of each quad pair (two quads never share both triangles).
             a = (2 * qa[block, None] + first).ravel()
             b = (2 * qb[block, None] + second).ravel()
-            return _crossing_of(a, b, tri, p, rows, in_focus)
+            return _crossing_of(a, b, tri, positions, rows, in_focus)
 
         # The pairs a few thousand at a time, on all cores: the filters'
         # temporaries stay in the cache (each pair is tested on its own, so

@@ -446,9 +446,11 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         warnings.append("No building block in the result.")
 
     report(0.7, "Conforming surfaces")
-    surface = SurfaceModel.from_regions(grid, region_volume(labels, blocks))
     columns = block_columns(blocks)
-    del labels, blocks
+    regions = region_volume(labels, blocks)
+    del labels, blocks  # before the surface's own grid-sized tables are made
+    surface = SurfaceModel.from_regions(grid, regions)
+    del regions
     lap("surface")
     check_face_memory(len(surface.quads), grid.shape[0] * grid.shape[1], params.voxel_size, params.max_memory)
 

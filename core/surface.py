@@ -97,7 +97,10 @@ class SurfaceModel:
             corners = base[:, None, :] + _FACE_CORNERS[axis][None, :, :]
             quads.append(corners[..., 0] + nx1 * (corners[..., 1] + ny1 * corners[..., 2]))
             pairs.append(np.column_stack([back[tuple(p.T)], front[tuple(p.T)]]))
+        # Freed before the node numbering's lattice-sized tables are made.
+        del padded, back, front
         flat = np.concatenate(quads)
+        del quads
         used, inverse = _unique_nodes(flat, nx1 * ny1 * (regions.shape[2] + 1))
         ijk = np.column_stack([used % nx1, (used // nx1) % ny1, used // (nx1 * ny1)])
         return cls(nodes=grid.node_xyz(ijk),
