@@ -119,8 +119,11 @@ def catmull_clark_operator(quads: np.ndarray, n: int) -> tuple[sparse.csr_matrix
     touched = (face_count > 0) & (valence > 0)
     inv_faces = np.divide(1.0, face_count, out=np.zeros(n), where=face_count > 0)
     inv_valence = np.divide(1.0, valence, out=np.zeros(n), where=valence > 0)
+    # Each incidence matrix is dropped once used: on a city they are hundreds of MB.
     face_mean = sparse.diags(inv_faces) @ incidence @ (incidence.T * 0.25)        # F
+    del incidence
     edge_mean = sparse.diags(inv_valence) @ edge_incidence @ (edge_incidence.T * 0.5)  # R
+    del edge_incidence
     own = np.where(touched, (valence - 3) * inv_valence, 0.0)
     W = (sparse.diags(inv_valence) @ face_mean + sparse.diags(2 * inv_valence) @ edge_mean
          + sparse.diags(own))
@@ -148,11 +151,14 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     """
     a, b = model.regions[:, 0], model.regions[:, 1]
     n = len(model.nodes)
-    from_blocks, _ = catmull_clark_operator(model.quads[(a > 0) | (b > 0)], n)
-    from_ground, _ = catmull_clark_operator(model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)], n)
-    # Each node follows one surface: its block's, else the ground's.
-    W = sparse.diags(roles.on_block.astype(float)) @ from_blocks \
-        + sparse.diags((~roles.on_block).astype(float)) @ from_ground
+    # Each node follows one surface: its block's, else the ground's (one
+    # operator made and narrowed to its nodes at a time, for the memory).
+    from_blocks = sparse.diags(roles.on_block.astype(float)) @ catmull_clark_operator(
+        model.quads[(a > 0) | (b > 0)], n)[0]
+    from_ground = sparse.diags((~roles.on_block).astype(float)) @ catmull_clark_operator(
+        model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)], n)[0]
+    W = from_blocks + from_ground
+    del from_blocks, from_ground
     keep = roles.fixed_axes | ~roles.movable[:, None]
     nodes = model.nodes.copy()
     stats = {"moved": [], "refused": []}
