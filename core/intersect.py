@@ -69,8 +69,8 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     corner = nodes[triangles]
     centre = corner.mean(axis=1)
     reach = _reach(corner, centre)
-    # Only the triangles near a focus one take part.
     del corner
+    # Only the triangles near a focus one take part.
     sub = _near_cells(centre, focus, 2 * reach.max())
     tri = triangles[sub]
     in_focus = np.zeros(len(triangles), dtype=bool)
