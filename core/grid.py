@@ -299,13 +299,13 @@ def available_memory() -> int:
     return 8 * 2**30
 
 
-#: Bytes per surface face (quad) that smoothing, projection and the measures
-#: add once the surfaces exist: node and face arrays, the triangles of the
-#: best splits, the KD-trees and neighbour lists of the projection. Measured
-#: on the 1 km synthetic city at 1 m (benchmarks/run.py): peak RSS 3.6 GB
-#: after the surfaces, 6.8 GB after the projection, for 4.85 M faces (660 B
-#: per face), with a margin.
-BYTES_PER_FACE = 1000
+#: Bytes per surface face (quad) that the surfaces, smoothing, projection and
+#: the measures add: node and face arrays, the triangles of the best splits,
+#: the smoothing operator, the KD-trees of the projection. Measured on the
+#: 1 km synthetic city at 1 m (benchmarks/run.py): peak RSS 2.16 GB before
+#: the surfaces, 3.35 GB after the projection, for 4.85 M faces (245 B per
+#: face), with a margin.
+BYTES_PER_FACE = 400
 
 
 def check_face_memory(n_faces: int, n_columns: int, voxel_size: float, available: int | None = None,
@@ -319,12 +319,12 @@ def check_face_memory(n_faces: int, n_columns: int, voxel_size: float, available
     Examples
     --------
     >>> check_face_memory(10**6, 10**6, 1.0, available=8 * 2**30)
-    1000000000
+    400000000
     >>> try:
-    ...     check_face_memory(10**8, 4 * 10**6, 1.0, available=8 * 2**30)
+    ...     check_face_memory(2 * 10**8, 4 * 10**6, 1.0, available=8 * 2**30)
     ... except UrbanvoxError as error:
     ...     print(error)
-    The surfaces (100000000 faces) need about 93.1 GiB for smoothing and projection but only 8.0 GiB is available. Use a voxel size of at least 3.6, or tiles of at most 410 (TILE_SIZE).
+    The surfaces (200000000 faces) need about 74.5 GiB for smoothing and projection but only 8.0 GiB is available. Use a voxel size of at least 3.3, or tiles of at most 458 (TILE_SIZE).
     """
     needed = int(n_faces) * bytes_per_face
     if available is None:

@@ -151,7 +151,7 @@ def test_plan_and_initial_windows_cover_the_domain():
 
 
 def test_memory_guard_counts_the_surfaces_too(district):
-    # The grid (4.4 M voxels, 16 B each) fits in 100 MB; the surfaces (~1 kB per face) do not.
+    # The grid (4.4 M voxels, 16 B each) fits in 100 MB; the surfaces (400 B per face) do not.
     params = ReconstructionParams(voxel_size=1.0, extent=district.district.extent, max_memory=100 * 2**20)
     with pytest.raises(UrbanvoxError, match=r"surfaces \(\d+ faces\) need about .* tiles of at most \d+"):
         reconstruct_point_cloud(district.laz, params=params)
