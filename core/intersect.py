@@ -66,10 +66,7 @@ def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarr
     none = np.zeros((0, 2), dtype=np.int64)
     if len(focus) == 0:
         return none
-    corner = nodes[triangles]
-    centre = corner.mean(axis=1)
-    reach = _reach(corner, centre)
-    del corner
+    centre, reach = _balls(nodes, triangles)
     # Only the triangles near a focus one take part.
     sub = _near_cells(centre, focus, 2 * reach.max())
     tri = triangles[sub]
@@ -126,14 +123,31 @@ def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, nodes: np.ndarra
     return np.column_stack([np.where(swap, b, a), np.where(swap, a, b)])
 
 
-def _reach(corner: np.ndarray, centre: np.ndarray) -> np.ndarray:
-    """Largest distance from each face's centre to its corners (three or
-    four): the face lies in the ball of that radius around its centre."""
-    squared = np.zeros(len(centre))
-    for k in range(corner.shape[1]):
-        d = corner[:, k] - centre
+def _balls(nodes: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centre and reach of every face (triangle or quad): the face lies in the
+    ball of that radius around its centre.
+
+    The centre is the mean of the corners, the reach the largest distance
+    from it to a corner. Made one corner at a time: a (F, corners, 3) table
+    of the corners is hundreds of MB on a city. The corners are summed in
+    their order, as ``corner.mean(axis=1)`` does.
+
+    Examples
+    --------
+    >>> nodes = np.array([[0.0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0]])
+    >>> centre, reach = _balls(nodes, np.array([[0, 1, 2, 3]]))
+    >>> centre.tolist(), reach.round(6).tolist()
+    ([[1.0, 1.0, 0.0]], [1.414214])
+    """
+    total = nodes[faces[:, 0]].copy()
+    for k in range(1, faces.shape[1]):
+        total += nodes[faces[:, k]]
+    centre = total / faces.shape[1]
+    squared = np.zeros(len(faces))
+    for k in range(faces.shape[1]):
+        d = nodes[faces[:, k]] - centre
         squared = np.maximum(squared, d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2)
-    return np.sqrt(squared)
+    return centre, np.sqrt(squared)
 
 
 def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndarray:
@@ -268,10 +282,7 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     moved = moved.copy()
     undone = 0
     near = None  # after a round, only the neighbourhood of what was undone can still cross
-    corner = positions[quads]
-    centre = corner.mean(axis=1)
-    reach = _reach(corner, centre)
-    del corner
+    centre, reach = _balls(positions, quads)
     # The best split of the quads met so far; a quad whose nodes are put back
     # is split again when it is next met.
     triangles = np.zeros((2 * len(quads), 3), dtype=quads.dtype)
@@ -300,9 +311,7 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         reverted = np.zeros(len(old), dtype=bool)
         reverted[culprits] = True
         touched = np.flatnonzero(reverted[quads].any(axis=1))
-        corner = positions[quads[touched]]
-        centre[touched] = corner.mean(axis=1)
-        reach[touched] = _reach(corner, centre[touched])
+        centre[touched], reach[touched] = _balls(positions, quads[touched])
         split[touched] = False
         changed[touched] = True
         seeds = np.flatnonzero(changed)

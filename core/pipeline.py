@@ -488,11 +488,13 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
             surface, nodes, roles, on_terrain, ground_data, h, params.quality_threshold, angle,
             check_crossings=False, is_cancelled=is_cancelled)
         lap("project")
+        del ground_data
     mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
     # Distance of block nodes to the data (the nearest building or ground point).
     data = np.concatenate([building, ground]) if len(building) else ground
     distance = np.full(len(nodes), np.nan)
     distance[roles.on_block] = nearest_distance(nodes[roles.on_block], data)
+    del data
     measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance)
     lap("measure")
     report(1.0, f"{len(table)} blocks")
