@@ -62,9 +62,9 @@ def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray, binary
     binary : bool
         Write a ``.msh`` in gmsh's binary encoding: the same content, about
         twice as fast to write on a city (the entity search is the same),
-        and exact coordinates. The other formats have one encoding each (PLY binary,
-        VTU as meshio writes it, OBJ and STL text: a binary STL cannot name
-        its solids) and ignore it.
+        and exact coordinates. The other formats have one encoding each
+        (PLY binary, VTU as meshio writes it, OBJ and STL text: a binary STL
+        cannot name its solids) and ignore it.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -291,6 +291,7 @@ def _write_msh(path: Path, model: SurfaceModel, world: np.ndarray, binary: bool 
 
 
 def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> None:
+    """The text encoding: coordinates and entity boxes to 0.1 mm."""
     t = topology
     n_nodes, n_faces, n_patches = len(world), len(t.faces), len(t.patch_physical)
     lines = ["$MeshFormat", "4.1 0 8", "$EndMeshFormat",

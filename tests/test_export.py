@@ -195,17 +195,22 @@ def _msh_entities(path, regions):
     return surfaces, volumes
 
 
-def test_gmsh_entities_match_a_search_per_interface_and_region(district, tmp_path):
-    from core.export import _regions
+@pytest.fixture(scope="module")
+def two(district):
+    """Two copies of the district 400 m apart: two clusters, so the ground and
+    the air have two shells each and every interface two patches or more."""
     from core.readers.las import read_point_clouds
 
-    # Two copies of the district 400 m apart: two clusters, so the ground and
-    # the air have two shells each and every interface two patches or more.
     points = read_point_clouds([district.laz])
     shift = np.array([400.0, 0.0, 0.0])
-    two = reconstruct_points(np.concatenate([points.ground, points.ground + shift]),
-                             np.concatenate([points.building, points.building + shift]), points.crs,
-                             ReconstructionParams(voxel_size=4.0), airborne=True)
+    return reconstruct_points(np.concatenate([points.ground, points.ground + shift]),
+                              np.concatenate([points.building, points.building + shift]), points.crs,
+                              ReconstructionParams(voxel_size=4.0), airborne=True)
+
+
+def test_gmsh_entities_match_a_search_per_interface_and_region(two, tmp_path):
+    from core.export import _regions
+
     surfaces, volumes = _msh_entities(two.write_mesh(tmp_path / "two.msh"), _regions(two.mesh))
     expected_surfaces, expected_volumes = _reference_entities(two.mesh)
     assert surfaces == expected_surfaces
@@ -238,24 +243,16 @@ def _gmsh_contents(path):
         gmsh.finalize()
 
 
-def test_binary_msh_reads_as_the_text_one(district, tmp_path):
-    from core.readers.las import read_point_clouds
-
-    # Two district copies: two shells of the ground and the air, several patches per interface.
-    points = read_point_clouds([district.laz])
-    shift = np.array([400.0, 0.0, 0.0])
-    two = reconstruct_points(np.concatenate([points.ground, points.ground + shift]),
-                             np.concatenate([points.building, points.building + shift]), points.crs,
-                             ReconstructionParams(voxel_size=4.0), airborne=True)
+def test_binary_msh_reads_as_the_text_one(two, tmp_path):
     text = _gmsh_contents(two.write_mesh(tmp_path / "two.msh"))
     binary_path = two.write_mesh(tmp_path / "two_binary.msh", binary=True)
     assert binary_path.read_bytes().startswith(b"$MeshFormat\n4.1 1 8\n")
     binary = _gmsh_contents(binary_path)
     names, entities, elements, node_tags, coords = binary
     assert names == text[0] and entities == text[1] and elements == text[2]
-    assert sum(dim == 3 and name == "ground" for dim, _, name in names) == 1
-    assert sum(dim == 3 and groups == [next(t for d, t, n in names if d == 3 and n == "ground")]
-               for dim, _, groups, _ in entities) == 2  # two ground shells
+    ground = [tag for dim, tag, name in names if dim == 3 and name == "ground"]
+    assert len(ground) == 1
+    assert sum(dim == 3 and groups == ground for dim, _, groups, _ in entities) == 2  # two ground shells
     assert np.array_equal(node_tags, text[3])
     # The text rounds coordinates to 0.1 mm; the binary file has them exactly.
     world = two.mesh_triangles.nodes + two.grid.offset
