@@ -12,10 +12,10 @@ Broad phase: two faces can only meet if their centres are closer than the
 sum of their reaches (the largest distance from a face's centre to its
 corners); KD-trees over the centres find those pairs, the few large faces in
 classes of their own so that they do not widen the search of all the
-others. :func:`undo_crossings` searches quads (half as many as triangles, and
-a quad's ball, which holds both its triangles, is smaller than a triangle's
-own) and splits only the quads it meets. Then the triangles' bounding boxes
-must overlap. Narrow phase: an edge of one triangle crossing the other
+others. The faces searched are quads (half as many as triangles, and a
+quad's ball, which holds both its triangles, is smaller than a triangle's
+own); only the quads met are split. Then the triangles' bounding boxes must
+overlap. Narrow phase: an edge of one triangle crossing the other
 (Moller-Trumbore on segments), both ways; coplanar touching is not reported.
 """
 from __future__ import annotations
@@ -33,51 +33,6 @@ from .quality import best_split
 _CLASS_QUANTILES = (0.9, 0.99)
 #: Quad pairs tested at a time (four triangle pairs each): cache-sized temporaries.
 _PAIR_BLOCK = 8192
-
-
-def crossing_triangles(nodes: np.ndarray, triangles: np.ndarray, focus: np.ndarray,
-                       chunk: int = 20_000, is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
-    """Pairs ``(a, b)`` of triangles that cross, ``a`` among the ``focus`` ones.
-
-    Each crossing pair is reported once, even when both triangles are in
-    ``focus``.
-
-    Parameters
-    ----------
-    nodes : ndarray (N, 3)
-    triangles : ndarray of int (T, 3)
-    focus : ndarray of int
-        Triangles to test against all others.
-    chunk : int
-        Triangles searched at a time (bounds the memory of the pair lists).
-    is_cancelled : callable, optional
-
-    Examples
-    --------
-    Two triangles piercing each other, and a third far away:
-
-    >>> nodes = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0],
-    ...                   [0.5, 0.5, -1], [0.5, 0.5, 1], [3, 3, 0],
-    ...                   [9, 9, 9], [10, 9, 9], [9, 10, 9]], float)
-    >>> tris = np.array([[0, 1, 2], [3, 4, 5], [6, 7, 8]])
-    >>> crossing_triangles(nodes, tris, np.array([0, 2])).tolist()
-    [[0, 1]]
-    """
-    none = np.zeros((0, 2), dtype=np.int64)
-    if len(focus) == 0:
-        return none
-    centre, reach = _balls(nodes, triangles)
-    # Only the triangles near a focus one take part.
-    sub = _near_cells(centre, focus, 2 * reach.max())
-    tri = triangles[sub]
-    in_focus = np.zeros(len(triangles), dtype=bool)
-    in_focus[focus] = True
-    in_focus = in_focus[sub]
-    rows = _pair_rows(nodes, tri)
-    found = [none]
-    for a, b in _close_pairs(centre[sub], reach[sub], np.searchsorted(sub, focus), chunk, is_cancelled):
-        found.append(_crossing_of(a, b, tri, nodes, rows, in_focus))
-    return sub[np.concatenate(found)]
 
 
 def _pair_rows(nodes: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -172,7 +127,7 @@ def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndar
 def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk: int,
                  is_cancelled: Callable[[], bool] | None):
     """Yield arrays ``(a, b)``: every pair of a seed ``a`` and another face
-    ``b`` (triangles or quads) whose centres are closer than their reaches
+    ``b`` whose centres are closer than their reaches
     added up (and more).
 
     Each pair comes once, also a pair of two seeds (then either may be ``a``).

@@ -1,7 +1,7 @@
 """Self-intersection control of projected surfaces (core.intersect)."""
 import numpy as np
 
-from core.intersect import crossing_triangles, undo_crossings
+from core.intersect import undo_crossings
 
 
 def two_plates(gap):
@@ -34,10 +34,20 @@ def test_moves_that_cross_nothing_are_kept():
     assert np.array_equal(positions, new)
 
 
-def test_adjacent_triangles_are_not_reported():
-    nodes = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0]], float)
-    triangles = np.array([[0, 1, 2], [1, 3, 2]])
-    assert len(crossing_triangles(nodes, triangles, np.array([0, 1]))) == 0
+def test_neighbouring_faces_folded_along_their_edge_do_not_cross():
+    # Two quads sharing an edge, the second folded up, then back over the
+    # first, 5 cm above it: their triangles touch along the edge and at its
+    # nodes, which is no crossing.
+    old = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [2, 0, 0], [2, 1, 0]], float)
+    quads = np.array([[0, 1, 2, 3], [1, 4, 5, 2]])
+    moved = np.zeros(len(old), bool)
+    moved[[4, 5]] = True
+    for folded in ([[1, 0, 1], [1, 1, 1]], [[0.2, 0, 0.05], [0.2, 1, 0.05]]):
+        new = old.copy()
+        new[[4, 5]] = folded
+        positions, kept, undone = undo_crossings(old, new, moved, quads)
+        assert undone == 0 and kept[[4, 5]].all()
+        assert np.array_equal(positions, new)
 
 
 def _reference_undo(old, new, moved, quads, max_rounds=20):
