@@ -64,7 +64,7 @@ CRS_EPSG = 2056
 WALL_DENSITY = 0.5  # facade points per m2 of wall: airborne scanners see walls poorly
 
 
-def _las_header(extent: tuple[float, float, float, float], crs: bool) -> "laspy.LasHeader":  # noqa: F821
+def las_header(extent: tuple[float, float, float, float], crs: bool) -> "laspy.LasHeader":  # noqa: F821
     """LAS 1.4 point format 6 header, millimetre scale, offset at the extent's corner."""
     import laspy
     import pyproj
@@ -177,7 +177,7 @@ class District:
         rng = np.random.default_rng(self.seed if seed is None else seed)
         X, Y, Z, C = self._airborne_points(rng, density)
 
-        las = laspy.LasData(_las_header(self.extent, crs))
+        las = laspy.LasData(las_header(self.extent, crs))
         las.x, las.y, las.z = X + ORIGIN[0], Y + ORIGIN[1], Z
         las.classification = C
         las.return_number = np.ones(X.size, np.uint8)
@@ -335,10 +335,10 @@ def make_district(seed: int = 0) -> District:
                                float(h), float(rise) if gable else 0.0,
                                "gable" if gable else "flat", 0 if long_x else 90,
                                bool(floor), str(wind)))
-    return _district_of(parts, seed, _TREES.copy())
+    return district_from_parts(parts, seed, _TREES.copy())
 
 
-def _district_of(parts: list[Part], seed: int, trees: np.ndarray) -> District:
+def district_from_parts(parts: list[Part], seed: int, trees: np.ndarray) -> District:
     """A 250 m tile from its parts: one truth block per block name, in order of first part."""
     blocks, walls = [], []
     for name in dict.fromkeys(p.block for p in parts):
@@ -347,6 +347,7 @@ def _district_of(parts: list[Part], seed: int, trees: np.ndarray) -> District:
         walls.append(w)
     extent = (ORIGIN[0], ORIGIN[1], ORIGIN[0] + SIZE, ORIGIN[1] + SIZE)
     return District(extent, blocks, seed, parts, trees, np.vstack(walls))
+
 
 def main(argv: list[str] | None = None) -> int:
     """CLI: ``python -m core.synthetic OUTDIR [SEED]`` writes LAZ, STLs and truth.json;

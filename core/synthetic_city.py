@@ -18,7 +18,7 @@ import numpy as np
 import shapely
 import shapely.affinity
 
-from .synthetic import CRS_EPSG, District, _district_of, _las_header, make_district
+from .synthetic import CRS_EPSG, District, district_from_parts, las_header, make_district
 from .synthetic_parts import DEFAULT_THRESHOLDS, ORIGIN, SIZE, TERRAIN, BlockTruth, Part
 
 
@@ -81,7 +81,7 @@ def make_residential(seed: int = 0) -> District:
     trees = np.column_stack([HOUSE_SLOT * (1 + corners // (slots - 1)),
                              HOUSE_SLOT * (1 + corners % (slots - 1)),
                              rng.uniform(1.5, 2.5, len(corners)), rng.uniform(6.0, 12.0, len(corners))])
-    return _district_of(parts, seed, trees)
+    return district_from_parts(parts, seed, trees)
 
 
 @dataclass
@@ -147,7 +147,7 @@ class City:
         import laspy
 
         seed = self.seed if seed is None else seed
-        header = _las_header(self.extent, crs)
+        header = las_header(self.extent, crs)
         backend = next((b for b in (laspy.LazBackend.LazrsParallel, laspy.LazBackend.Lazrs)
                         if b.is_available()), None)
         total = 0
