@@ -218,9 +218,10 @@ def _msh_topology(model: SurfaceModel, world: np.ndarray) -> _MshTopology:
     # order of the faces sorted by interface.
     face_order = np.argsort(which, kind="stable")
     k = faces.shape[1]
+    index = np.int32 if max(len(faces), n_nodes, len(interfaces)) < 2**31 else np.int64  # halves the tables
     patch_sorted, pair, pair_patch = _linked_parts(
-        np.repeat(np.arange(len(faces)), k), np.repeat(which[face_order], k), faces[face_order].ravel(),
-        len(faces), n_nodes)
+        np.repeat(np.arange(len(faces), dtype=index), k), np.repeat(which[face_order].astype(index), k),
+        faces[face_order].astype(index).ravel(), len(faces), n_nodes)
     patch = np.empty(len(faces), dtype=np.int64)
     patch[face_order] = patch_sorted
     first_face = face_order[np.unique(patch_sorted, return_index=True)[1]]
@@ -259,9 +260,16 @@ def _msh_topology(model: SurfaceModel, world: np.ndarray) -> _MshTopology:
     # Entity boxes: of each patch's nodes, and of each shell's patches.
     order = np.argsort(patch, kind="stable")
     bounds = np.searchsorted(patch[order], np.arange(n_patches + 1))
-    corners = [world[faces[order, c]] for c in range(3)]  # (F, 3) each: no reduction over an axis of 3
-    patch_lower = np.minimum.reduceat(np.minimum(np.minimum(corners[0], corners[1]), corners[2]), bounds[:-1])
-    patch_upper = np.maximum.reduceat(np.maximum(np.maximum(corners[0], corners[1]), corners[2]), bounds[:-1])
+    # One coordinate at a time: (F,) gathers of the three corners, where
+    # (F, 3) tables of them took a gigabyte on a city.
+    patch_lower = np.empty((n_patches, 3))
+    patch_upper = np.empty((n_patches, 3))
+    for axis in range(3):
+        corners = [world[faces[order, c], axis] for c in range(3)]
+        patch_lower[:, axis] = np.minimum.reduceat(np.minimum(np.minimum(corners[0], corners[1]), corners[2]),
+                                                   bounds[:-1])
+        patch_upper[:, axis] = np.maximum.reduceat(np.maximum(np.maximum(corners[0], corners[1]), corners[2]),
+                                                   bounds[:-1])
     del corners
     shell_start = np.searchsorted(shell_of, np.arange(len(bounding)))
     shell_lower = np.minimum.reduceat(patch_lower[patch_of], shell_start)
@@ -349,10 +357,13 @@ def _write_msh_binary(path: Path, topology: _MshTopology, world: np.ndarray) -> 
         out.write(np.ascontiguousarray(world, dtype="<f8").tobytes())
         out.write(b"\n$EndNodes\n$Elements\n")
         out.write(np.array([n_patches, n_faces, 1, n_faces], size_t).tobytes())
-        # Rows (tag, node, node, node) of the faces in patch order, a patch's rows in one piece.
+        # Rows (tag, node, node, node) of the faces in patch order, a patch's
+        # rows in one piece, made _ROWS at a time (bounded temporaries).
         rows = np.empty((n_faces, t.faces.shape[1] + 1), dtype=size_t)
-        rows[:, 0] = t.face_order + 1
-        rows[:, 1:] = t.faces[t.face_order] + 1
+        for part in range(0, n_faces, _ROWS):
+            members = t.face_order[part:part + _ROWS]
+            rows[part:part + len(members), 0] = members + 1
+            rows[part:part + len(members), 1:] = t.faces[members] + 1
         for p in range(n_patches):
             start, stop = t.patch_start[p], t.patch_start[p + 1]
             out.write(np.array([2, p + 1, 2], "<i4").tobytes() + np.array(stop - start, size_t).tobytes())
@@ -401,33 +412,38 @@ def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items
     # lines where regions meet): their pair is the node itself. Only the
     # links at the other nodes are numbered by a sort (of all the links, it
     # took most of the time on a city).
-    node_group = np.zeros(n_nodes, dtype=np.int64)
+    node_group = np.zeros(n_nodes, dtype=group.dtype)
     node_group[node] = group  # any one of each node's groups
     mixed = np.zeros(n_nodes, dtype=bool)
     mixed[node[group != node_group[node]]] = True
     at_mixed = np.flatnonzero(mixed[node])
     mixed_pair, mixed_vertex = np.unique(group[at_mixed].astype(np.int64) * n_nodes + node[at_mixed],
                                          return_inverse=True)
-    vertex = node.astype(np.int64)  # pair vertices: the nodes, then the mixed pairs
-    vertex[at_mixed] = n_nodes + mixed_vertex.ravel()
     size = n_items + n_nodes + len(mixed_pair)
+    # Graph vertices: the items, the nodes, then the mixed pairs. 32-bit
+    # indices where they fit (the graph's own index type: no copy of it).
+    index = np.int32 if size < 2**31 else np.int64
+    vertex = node.astype(index)
+    vertex[at_mixed] = n_nodes + mixed_vertex.ravel()
+    vertex += n_items
     # Items and pairs in one bipartite graph; the items are its first
     # vertices, so its parts are numbered in the order of their first item.
     # Built as the float CSR matrix the search works on (a conversion would
     # copy it); links sorted by item (a face's corners) are its rows as they are.
     ones = np.ones(len(item))
     if np.all(item[1:] >= item[:-1]):
-        indptr = np.full(size + 1, len(item), dtype=np.int64)
+        indptr = np.full(size + 1, len(item), dtype=index)
         indptr[0] = 0
         indptr[1:n_items + 1] = np.cumsum(np.bincount(item, minlength=n_items))
-        graph = csr_matrix((ones, n_items + vertex, indptr), shape=(size, size))
+        graph = csr_matrix((ones, vertex, indptr), shape=(size, size))
     else:
-        graph = csr_matrix((ones, (item, n_items + vertex)), shape=(size, size))
+        graph = csr_matrix((ones, (item, vertex)), shape=(size, size))
+    del vertex
     _, labels = connected_components(graph, directed=False)
     plain = np.zeros(n_nodes, dtype=bool)
     plain[node] = True
     plain = np.flatnonzero(plain & ~mixed)
-    pair = np.concatenate([node_group[plain] * n_nodes + plain, mixed_pair])
+    pair = np.concatenate([node_group[plain].astype(np.int64) * n_nodes + plain, mixed_pair])
     pair_part = np.concatenate([labels[n_items + plain], labels[n_items + n_nodes:]])
     return labels[:n_items], pair, pair_part
 
