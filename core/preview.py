@@ -38,19 +38,24 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     from matplotlib import cm
 
     eye, right, up = _view_axes()
-    # Any split of a quad draws the same picture: the fixed diagonal, not the
-    # best one (the meshes' split costs a quality evaluation per quad).
-    if model.quads.shape[1] == 4:
-        model = SurfaceModel(model.nodes, np.concatenate([model.quads[:, :3], model.quads[:, [0, 2, 3]]]),
-                             np.concatenate([model.regions, model.regions]))
-    block_tri, owner = model.block_faces()
-    ground_tri = model.interface(GROUND_REGION, AIR_REGION)
+    block_tri, owner = _triangles(*model.block_faces())
+    ground_tri, _ = _triangles(model.interface(GROUND_REGION, AIR_REGION))
     faces = np.concatenate([block_tri, ground_tri])
-    p = model.nodes[faces]
-    normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    # View coordinates (across, up, and depth towards the eye) of the nodes,
+    # once: a rotation, so a face's normal there is its normal rotated, and
+    # its depth component says whether it is turned to the viewer.
+    rotation = np.column_stack([right, up, eye])
+    view_nodes = model.nodes @ rotation
+    x, y = view_nodes[:, 0], view_nodes[:, 1]
+    a, b, c = faces.T
+    towards_eye = (x[b] - x[a]) * (y[c] - y[a]) - (y[b] - y[a]) * (x[c] - x[a])
     # Only the faces turned to the viewer are coloured and drawn.
-    facing = np.flatnonzero(normal @ eye > 0)
-    p, normal = p[facing], normal[facing]
+    facing = np.flatnonzero(towards_eye > 0)
+    view = view_nodes[faces[facing]]
+    e1, e2 = view[:, 1] - view[:, 0], view[:, 2] - view[:, 0]
+    normal = np.column_stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1], e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
+                              towards_eye[facing]])
+    del e1, e2
     on_block = facing < len(block_tri)
     owner = owner[facing[on_block]]
     values = np.array(list(height_of_block.values()), dtype=np.float64)
@@ -60,15 +65,32 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     colours[on_block] = cm.viridis(np.clip(heights / max(vmax, 1e-9), 0, 1))
     colours[~on_block] = (0.78, 0.76, 0.70, 1.0)
     length = np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
-    colours[:, :3] *= (0.55 + 0.45 * np.clip((normal @ np.array([0.3, 0.5, 0.8])) / length, 0, 1))[:, None]
-    # View coordinates: across, up, and depth towards the eye.
-    image, extent = _rasterised(p @ np.column_stack([right, up, eye]), colours)
+    light = np.array([0.3, 0.5, 0.8]) @ rotation
+    colours[:, :3] *= (0.55 + 0.45 * np.clip((normal @ light) / length, 0, 1))[:, None]
+    image, extent = _rasterised(view, colours)
     ax.imshow(image, origin="lower", extent=extent, interpolation="nearest")
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
     ax.set_aspect("equal")
     ax.set_axis_off()
     ax.set_title(title)
+
+
+def _triangles(faces: np.ndarray, owner: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Quads split along their fixed diagonal (triangles pass through), and
+    the owner of each triangle. Any split draws the same picture; the
+    meshes' best split costs a quality evaluation per quad.
+
+    Examples
+    --------
+    >>> tri, owner = _triangles(np.array([[0, 1, 2, 3]]), np.array([7]))
+    >>> tri.tolist(), owner.tolist()
+    ([[0, 1, 2], [0, 2, 3]], [7, 7])
+    """
+    if faces.shape[1] == 3:
+        return faces, owner
+    return (np.concatenate([faces[:, :3], faces[:, [0, 2, 3]]]),
+            None if owner is None else np.concatenate([owner, owner]))
 
 
 def _rasterised(view: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float, float]]:
@@ -90,7 +112,9 @@ def _rasterised(view: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, tupl
     """
     if len(view) == 0:
         return np.zeros((1, 1, 4)), (0.0, 1.0, 0.0, 1.0)
-    lower, upper = view[..., :2].min(axis=(0, 1)), view[..., :2].max(axis=(0, 1))
+    # One coordinate at a time (a reduction over two axes of a strided view is slow).
+    lower = np.array([view[:, :, 0].min(), view[:, :, 1].min()])
+    upper = np.array([view[:, :, 0].max(), view[:, :, 1].max()])
     scale = (_PIXELS - 1) / max(float(upper[0] - lower[0]), 1e-12)
     width, height = _PIXELS, int(np.floor((upper[1] - lower[1]) * scale)) + 1
     pixel = view.copy()
