@@ -23,6 +23,7 @@ module                 step                                                  pap
 ``measure.py``         per-block volume, areas, quality, distance to data
 ``export.py``          mesh files (.msh .vtu .obj .stl .ply)
 ``pipeline.py``        the steps in order, with progress and cancel
+``reconstruction.py``  the result: layer rows and geometries, mesh files, preview
 ``clusters.py``        scattered data: one grid per cluster, merged
 ``tiles.py``           tiles with a halo, owned blocks, merged as one run
 ``workers.py``         where tiles run: this process or Dask workers

@@ -19,6 +19,7 @@ from scipy import ndimage
 from .blocks import BlockTable
 from .grid import VoxelGrid
 from .measure import BlockMeasures
+from .reconstruction import Reconstruction
 from .surface import SurfaceModel
 
 
@@ -40,10 +41,8 @@ def split_clusters(points: np.ndarray, gap: float) -> np.ndarray:
     return labels[cell[:, 0], cell[:, 1]] - 1
 
 
-def merge(parts: list) -> "Reconstruction":  # noqa: F821 - core.pipeline.Reconstruction
+def merge(parts: list[Reconstruction]) -> Reconstruction:
     """One reconstruction from the reconstructions of separate clusters."""
-    from .pipeline import Reconstruction
-
     h = parts[0].grid.voxel_size
     offset = np.min([p.grid.offset for p in parts], axis=0)
     nodes, quads, regions, moved, columns = [], [], [], [], []

@@ -26,28 +26,27 @@ anything is written.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
-from functools import cached_property
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
-from .blocks import (BlockTable, block_attributes, block_columns, drop_blocks, keep_blocks, label_blocks,
-                     small_blocks)
+from .blocks import block_attributes, block_columns, drop_blocks, keep_blocks, label_blocks, small_blocks
 from .classify import classify_voxels, roof_hole_columns
 from .clusters import merge as merge_clusters
 from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
-from .grid import GridWindow, VoxelGrid, check_face_memory, check_memory
+from .grid import GridWindow, check_face_memory, check_memory
 from .ground import GroundLevel, column_ground_level
 from .heap import reusing_freed_memory
 from .manifold import make_well_composed, repair_height_field
-from .measure import BlockMeasures, measure_blocks
+from .measure import measure_blocks
 from .neighbours import nearest_distance
 from .project import project_nodes
+from .reconstruction import Reconstruction
 from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
 from .tiles import TileOptions, reconstruct_tiled
@@ -102,164 +101,6 @@ class ReconstructionParams:
     max_projection_angle: float = 45.0
     extent: tuple[float, float, float, float] | None = None
     max_memory: int | None = None
-
-
-@dataclass
-class Reconstruction:
-    """The voxel model of a city: blocks with attributes and conforming surfaces.
-
-    Lengths in the attribute table are in CRS units; :meth:`block_rows`
-    reports them in metres.
-    """
-
-    crs: "pyproj.CRS"  # noqa: F821 - pyproj is imported lazily by the readers
-    grid: VoxelGrid
-    blocks: BlockTable
-    surface: SurfaceModel          # the voxel model's faces (§3.3-3.4)
-    mesh: SurfaceModel             # the same faces, smoothed and projected (§4)
-    measures: BlockMeasures        # of ``mesh``, per block
-    footprint_columns: np.ndarray  # (P, 3): block id, i, j of every column a block covers
-    warnings: list[str] = field(default_factory=list)
-    timings: dict[str, float] = field(default_factory=dict)
-    stats: dict = field(default_factory=dict)
-
-    @property
-    def metres_per_unit(self) -> float:
-        return metres_per_unit(self.crs)
-
-    @property
-    def summary(self) -> dict:
-        """Block count and total volume (m³), for scripts and the Processing outputs."""
-        m = self.metres_per_unit
-        return {
-            "block_count": int(len(self.blocks)),
-            "total_volume": float(self.blocks.volume.sum() * m**3),
-            "voxel_size": float(self.grid.voxel_size * m),
-            "grid_shape": [int(n) for n in self.grid.shape],
-            "timings": {k: float(v) for k, v in self.timings.items()},
-        }
-
-    def block_rows(self) -> list[dict]:
-        """One dict per block, plain Python numbers (GPKG drops numpy scalars).
-
-        ``volume``, ``surface_area``, ``footprint_area`` and ``height`` are of
-        the voxel model (§3); ``mesh_volume``, ``mesh_area``, ``roof_area``,
-        ``facade_area``, the qualities and the distances are of the final
-        smoothed, projected mesh (§4). Lengths in metres.
-        """
-        m = self.metres_per_unit
-        t = self.blocks
-        me = self.measures
-        faces = self.surface.face_count_per_block(int(t.block_id.max()) if len(t) else 0)
-        z0 = self.grid.offset[2]
-        rows = []
-        for b in range(len(t)):
-            index = t.block_id[b] - 1
-            rows.append({
-                "block_id": int(t.block_id[b]),
-                "height": float(t.height[b] * m),
-                "ground_z": float(t.ground_z[b] + z0),
-                "top_z": float(t.top_z[b] + z0),
-                "footprint_area": float(t.footprint_area[b] * m**2),
-                "volume": float(t.volume[b] * m**3),
-                "surface_area": float(faces[index] * (self.grid.voxel_size * m) ** 2),
-                "n_voxels": int(t.n_voxels[b]),
-                "mesh_volume": float(me.volume[index] * m**3),
-                "mesh_area": float(me.area[index] * m**2),
-                "roof_area": float(me.roof_area[index] * m**2),
-                "facade_area": float(me.facade_area[index] * m**2),
-                "min_quality": float(me.min_quality[index]),
-                "mean_quality": float(me.mean_quality[index]),
-                "mean_dist": _plain(me.mean_dist[index] * m),
-                "max_dist": _plain(me.max_dist[index] * m),
-            })
-        return rows
-
-    @reusing_freed_memory()
-    def block_surface_wkb(self) -> list[bytes]:
-        """Closed outward surface of every block as MultiPolygonZ WKB, world coordinates.
-
-        Voxel faces are written as quads; once smoothed, as the two
-        triangles of each quad's best split (a moved quad is not planar).
-        """
-        from .wkb import multipolygons_z
-
-        ids = self.blocks.block_id
-        lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
-        lookup[ids] = np.arange(len(ids))
-        model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh_triangles
-        faces, owner = model.block_faces()
-        index = lookup[owner]
-        order = np.argsort(index, kind="stable")
-        rings = self.grid.to_world(self.mesh.nodes)[faces[order]]
-        rings = np.concatenate([rings, rings[:, :1]], axis=1)
-        return multipolygons_z(rings, index[order], len(ids))
-
-    @reusing_freed_memory()
-    def ground_surface_wkb(self, tile: int = 64) -> list[bytes]:
-        """The terrain (ground/air faces) as MultiPolygonZ WKB, one per tile of
-        ``tile`` x ``tile`` columns so that no feature is city-sized."""
-        from .surface import AIR_REGION, GROUND_REGION, unique_pairs
-        from .wkb import multipolygons_z
-
-        model = self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh_triangles
-        faces = model.interface(GROUND_REGION, AIR_REGION)
-        if len(faces) == 0:
-            return []
-        nodes = self.grid.to_world(model.nodes)
-        centre = model.nodes[faces].mean(axis=1)
-        key = np.floor((centre[:, :2] - self.grid.origin[:2]) / (tile * self.grid.voxel_size)).astype(np.int64)
-        index = unique_pairs(key)[1]
-        order = np.argsort(index, kind="stable")
-        rings = nodes[faces[order]]
-        rings = np.concatenate([rings, rings[:, :1]], axis=1)
-        return multipolygons_z(rings, index[order], int(index.max()) + 1)
-
-    @cached_property
-    def mesh_triangles(self) -> SurfaceModel:
-        """``mesh`` with every quad split along its best diagonal, once for all outputs."""
-        # Its block-sized temporaries reuse freed memory, as in the run: with
-        # glibc's defaults each is fresh pages (the 1 km city's first PLY
-        # took 7 s, 6 of them in the kernel).
-        with reusing_freed_memory():
-            return self.mesh.triangulated()
-
-    @reusing_freed_memory()
-    def write_mesh(self, path, binary: bool = False) -> "Path":
-        """Write the final conforming mesh; the suffix picks the format, ``binary``
-        the encoding of a ``.msh`` (:func:`core.export.write_mesh`)."""
-        from .export import write_mesh
-
-        return write_mesh(path, self.mesh_triangles, self.grid.offset, binary=binary)
-
-    def write_preview(self, path, before_after: bool = True) -> "Path":
-        """PNG picture, blocks coloured by height; voxels beside the final mesh."""
-        from .preview import write_preview
-
-        heights = {row["block_id"]: row["height"] for row in self.block_rows()}
-        panels = [(self.mesh, "smoothed and projected (§4)")]
-        if before_after:
-            panels.insert(0, (self.surface, "voxel model (§3)"))
-        return write_preview(path, panels, heights)
-
-    def footprint_wkb(self) -> list[bytes]:
-        """Footprint of every block (union of its columns) as Polygon WKB."""
-        import shapely
-
-        h = self.grid.voxel_size
-        b, i, j = self.footprint_columns.T
-        x0 = self.grid.offset[0] + self.grid.origin[0] + i * h
-        y0 = self.grid.offset[1] + self.grid.origin[1] + j * h
-        boxes = shapely.box(x0, y0, x0 + h, y0 + h)
-        cuts = np.searchsorted(b, self.blocks.block_id, side="left")
-        ends = np.searchsorted(b, self.blocks.block_id, side="right")
-        out = []
-        for start, stop in zip(cuts, ends):
-            shape = shapely.coverage_union_all(boxes[start:stop])
-            if shape.geom_type == "MultiPolygon":  # only touching at a corner: keep the largest
-                shape = max(shape.geoms, key=lambda g: g.area)
-            out.append(shapely.to_wkb(shape, output_dimension=2))  # GEOS < 3.12 in QGIS: no 4D
-        return out
 
 
 @reusing_freed_memory()
@@ -559,11 +400,6 @@ def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):
     highest = np.zeros((nx, ny), np.int64)
     np.maximum.at(highest, (cells[:, 0], cells[:, 1]), cells[:, 2])
     return roof_hole_columns(has_building, ground_observed, highest, int(max_hole_cells))
-
-
-def _plain(value: float) -> float | None:
-    """A Python float, or None (a NULL field) for NaN."""
-    return None if not np.isfinite(value) else float(value)
 
 
 def _inside(points: np.ndarray, extent) -> np.ndarray:

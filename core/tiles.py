@@ -236,7 +236,7 @@ def _per_block(ids: np.ndarray, values: np.ndarray, n: int) -> tuple[np.ndarray,
 
 
 def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float):
-    """One :class:`~core.pipeline.Reconstruction` body from the tiles' pieces.
+    """One :class:`~core.reconstruction.Reconstruction` body from the tiles' pieces.
 
     Returns the grid, block table, surface, mesh, measures and footprint
     columns (the caller adds CRS, warnings and statistics).
@@ -305,7 +305,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
                       is_cancelled: Callable[[], bool] | None):
     """Reconstruct ``domain`` tile by tile (see the module) and merge."""
     from .crs import metres_per_unit
-    from .pipeline import Reconstruction
+    from .reconstruction import Reconstruction
 
     start = time.perf_counter()
     progress = _monotone(progress)
