@@ -23,9 +23,10 @@ Stage names: the pipeline's laps (``core.pipeline.reconstruct_points``) are grid
 timed apart on the same points), classify, blocks, eliminate (elimination), surface
 (surfaces), smooth (smoothing), project (projection), measure; read and export are timed
 around them: a PLY, part of end to end, then apart the gmsh .msh, the finite-element format,
-as text and in binary (the mesh triangulated for the PLY serves them too). Rates: read in points read (mesh:
-triangles), grid/ground in points, voxelise in building points, the voxel stages in voxels
-of the grid(s), and smoothing, projection, measure and export in faces (quads) of the surface.
+as text and in binary (the mesh triangulated for the PLY serves them too). Rates: read in
+points read (mesh: triangles), grid/ground in points, voxelise in building points, the voxel
+stages in voxels of the grid(s), and smoothing, projection, measure and export in faces
+(quads) of the surface.
 """
 from __future__ import annotations
 
