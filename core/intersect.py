@@ -23,6 +23,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
+from scipy import ndimage
 
 from .errors import Cancelled
 from .neighbours import search_tree
@@ -33,18 +34,26 @@ from .quality import best_split
 _CLASS_QUANTILES = (0.9, 0.99)
 #: Quad pairs tested at a time (four triangle pairs each): cache-sized temporaries.
 _PAIR_BLOCK = 8192
+#: Faces whose balls or boxes are made at a time (a few MB of temporaries).
+_ROWS = 1 << 16
 
 
 def _pair_rows(nodes: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper corners of the triangles' boxes as per-axis rows (3, T):
     the pair filters gather one contiguous row at a time. Made one axis at a
-    time from the nodes: no (T, 3, 3) table of corners."""
+    time from the nodes (no (T, 3, 3) table of corners), ``_ROWS`` triangles
+    at a time on all cores (:mod:`core.parallel`)."""
     lower = np.empty((3, len(tri)))
     upper = np.empty((3, len(tri)))
-    for c in range(3):
-        x = [nodes[tri[:, j], c] for j in range(3)]
-        lower[c] = np.minimum(np.minimum(x[0], x[1]), x[2])
-        upper[c] = np.maximum(np.maximum(x[0], x[1]), x[2])
+
+    def fill(rows: slice) -> None:
+        corner = tri[rows]
+        for c in range(3):
+            x = [nodes[corner[:, j], c] for j in range(3)]
+            lower[c, rows] = np.minimum(np.minimum(x[0], x[1]), x[2])
+            upper[c, rows] = np.maximum(np.maximum(x[0], x[1]), x[2])
+
+    map_blocks(fill, row_blocks(len(tri), _ROWS))
     return lower, upper
 
 
@@ -85,7 +94,8 @@ def _balls(nodes: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray
     The centre is the mean of the corners, the reach the largest distance
     from it to a corner. Made one corner at a time: a (F, corners, 3) table
     of the corners is hundreds of MB on a city. The corners are summed in
-    their order, as ``corner.mean(axis=1)`` does.
+    their order, as ``corner.mean(axis=1)`` does. Rows are independent:
+    ``_ROWS`` at a time, on all cores (:mod:`core.parallel`).
 
     Examples
     --------
@@ -94,15 +104,25 @@ def _balls(nodes: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray
     >>> centre.tolist(), reach.round(6).tolist()
     ([[1.0, 1.0, 0.0]], [1.414214])
     """
-    total = nodes[faces[:, 0]].copy()
-    for k in range(1, faces.shape[1]):
-        total += nodes[faces[:, k]]
-    centre = total / faces.shape[1]
-    squared = np.zeros(len(faces))
-    for k in range(faces.shape[1]):
-        d = nodes[faces[:, k]] - centre
-        squared = np.maximum(squared, d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2)
-    return centre, np.sqrt(squared)
+    centre = np.empty((len(faces), 3))
+    reach = np.empty(len(faces))
+
+    def fill(rows: slice) -> None:
+        corner = faces[rows]
+        total = nodes[corner[:, 0]]
+        for k in range(1, corner.shape[1]):
+            total += nodes[corner[:, k]]
+        centre[rows] = middle = total / corner.shape[1]
+        squared = np.zeros(len(corner))
+        for k in range(corner.shape[1]):
+            d = nodes[corner[:, k]] - middle
+            squared = np.maximum(squared, d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2)
+        reach[rows] = np.sqrt(squared)
+
+    # Blocks of rows on all cores: a block's gathers and temporaries stay in
+    # the cache (one pass over 5 M quads took 1.3 s, the blocks 0.3 s).
+    map_blocks(fill, row_blocks(len(faces), _ROWS))
+    return centre, reach
 
 
 def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndarray:
@@ -117,6 +137,14 @@ def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndar
     cell = np.floor((centre - lower) / radius).astype(np.int64) + 1  # +1: room for the -1 neighbours
     dims = cell.max(axis=0) + 2
     key = cell[:, 0] + dims[0] * (cell[:, 1] + dims[1] * cell[:, 2])
+    if np.prod(dims.astype(np.float64)) <= 4 * len(centre):
+        # A table of the cells (no larger than a few arrays of the faces),
+        # the seeds' ones dilated by one: a lookup per face instead of a sort
+        # of all the keys (np.isin).
+        wanted = np.zeros(int(np.prod(dims)), dtype=bool)
+        wanted[key[seeds]] = True
+        wanted = ndimage.binary_dilation(wanted.reshape(dims[::-1]), np.ones((3, 3, 3), bool)).ravel()
+        return np.flatnonzero(wanted[key])
     steps = np.array([dx + dims[0] * (dy + dims[1] * dz)
                       for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
     seed_cells = np.unique(key[seeds])

@@ -121,3 +121,26 @@ def test_a_quad_is_searched_with_the_reach_of_all_four_corners():
     positions, kept, undone = undo_crossings(nodes, new, moved, quads)
     assert undone == 2 and not kept[[4, 5]].any()
     assert np.array_equal(positions, nodes)
+
+
+def test_near_cells_are_the_cells_around_the_seeds_with_a_table_or_a_sort():
+    # _near_cells marks the seeds' cells in a table when the grid of cells
+    # is small, and sorts the keys otherwise: both give the faces whose cell
+    # is at most one cell away from a seed's on every axis.
+    from core.intersect import _near_cells
+
+    rng = np.random.default_rng(5)
+    paths = set()
+    for trial in range(60):
+        n = int(rng.integers(1, 300))
+        spread = [1, 10, 1000][trial % 3]  # dense grids take the table, sparse ones the sort
+        centre = rng.random((n, 3)) * spread
+        seeds = np.flatnonzero(rng.random(n) < 0.2)
+        radius = 0.5
+        cell = np.floor((centre - centre.min(axis=0)) / radius).astype(int)
+        dims = cell.max(axis=0) + 3
+        paths.add(bool(np.prod(dims) <= 4 * n))
+        near = np.abs(cell[:, None, :] - cell[None, seeds, :]).max(axis=2) <= 1
+        expected = np.flatnonzero(near.any(axis=1))
+        assert np.array_equal(_near_cells(centre, seeds, radius), expected)
+    assert paths == {True, False}
