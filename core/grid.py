@@ -301,7 +301,7 @@ def available_memory() -> int:
 
 #: Bytes per surface face (quad) that the surfaces, smoothing, projection and
 #: the measures add: node and face arrays, the triangles of the best splits,
-#: the smoothing operator, the KD-trees of the projection. Measured on the
+#: the smoothing's incidence matrices, the KD-trees of the projection. Measured on the
 #: 1 km synthetic city at 1 m (benchmarks/run.py): peak RSS 2.16 GB before
 #: the surfaces, 3.35 GB after the projection, for 4.85 M faces (245 B per
 #: face), with a margin.

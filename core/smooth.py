@@ -79,18 +79,24 @@ def _nodes_of(quads: np.ndarray, n: int) -> np.ndarray:
     return mask
 
 
-def catmull_clark_operator(quads: np.ndarray, n: int) -> tuple[sparse.csr_matrix, np.ndarray]:
-    """The vertex-only Catmull-Clark step as one sparse ``n x n`` matrix.
+class CatmullClarkStep:
+    """The vertex-only Catmull-Clark step on one surface: ``step(positions)``
+    gives the new positions of the surface's nodes ``step.nodes``.
 
-    The topology never changes, so the step is linear in the node positions
-    and the same every pass: ``new = W @ nodes``.
+    The topology never changes, so the step is linear in the positions, and
+    it is made of two incidence matrices, each a plain table of the faces'
+    (edges') nodes: ``A`` (nodes x faces, 1/4 per corner) gives the face
+    centres ``A.T @ P``, and ``A @ centres`` a node's sum of them; ``B``
+    (nodes x edges, 1/2 per end) does the same with the edge midpoints. Two
+    sparse products with a vector per pass: the single ``n x n`` operator
+    ``W`` took products of these sparse matrices, which cost ten passes.
 
-    Returns
-    -------
-    W : scipy.sparse.csr_matrix
-        Rows of nodes the quads do not touch are zero.
-    touched : ndarray of bool
-        Nodes the quads touch.
+    Parameters
+    ----------
+    quads : ndarray of int (M, 4)
+        The surface's faces.
+    n : int
+        Number of nodes of the model (``quads`` index them).
 
     Examples
     --------
@@ -100,34 +106,45 @@ def catmull_clark_operator(quads: np.ndarray, n: int) -> tuple[sparse.csr_matrix
     >>> nodes = np.array([[x, y, z] for z in (0, 2) for y in (0, 2) for x in (0, 2)], float)
     >>> cube = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4],
     ...                  [1, 3, 7, 5], [3, 2, 6, 7], [2, 0, 4, 6]])
-    >>> W, _ = catmull_clark_operator(cube, 8)
-    >>> (W @ nodes)[0]
-    array([0.44444444, 0.44444444, 0.44444444])
+    >>> step = CatmullClarkStep(cube, 8)
+    >>> step.nodes[0], step(nodes)[0]
+    (0, array([0.44444444, 0.44444444, 0.44444444]))
     """
-    m = len(quads)
-    corner_face = np.repeat(np.arange(m), 4)
-    incidence = sparse.csr_matrix((np.ones(4 * m), (quads.ravel(), corner_face)), shape=(n, m))
-    face_count = np.asarray(incidence.sum(axis=1)).ravel()
-    tail = quads.ravel()
-    head = np.roll(quads, -1, axis=1).ravel()
-    key = np.unique(np.minimum(tail, head).astype(np.int64) * n + np.maximum(tail, head))
-    edges = np.column_stack([key // n, key % n])
-    e = len(edges)
-    edge_incidence = sparse.csr_matrix((np.ones(2 * e), (edges.ravel(), np.repeat(np.arange(e), 2))),
-                                       shape=(n, e))
-    valence = np.asarray(edge_incidence.sum(axis=1)).ravel()
-    touched = (face_count > 0) & (valence > 0)
-    inv_faces = np.divide(1.0, face_count, out=np.zeros(n), where=face_count > 0)
-    inv_valence = np.divide(1.0, valence, out=np.zeros(n), where=valence > 0)
-    # Each incidence matrix is dropped once used: on a city they are hundreds of MB.
-    face_mean = sparse.diags(inv_faces) @ incidence @ (incidence.T * 0.25)        # F
-    del incidence
-    edge_mean = sparse.diags(inv_valence) @ edge_incidence @ (edge_incidence.T * 0.5)  # R
-    del edge_incidence
-    own = np.where(touched, (valence - 3) * inv_valence, 0.0)
-    W = (sparse.diags(inv_valence) @ face_mean + sparse.diags(2 * inv_valence) @ edge_mean
-         + sparse.diags(own))
-    return W.tocsr(), touched
+
+    def __init__(self, quads: np.ndarray, n: int):
+        on_surface = np.zeros(n, dtype=bool)
+        on_surface[quads.ravel()] = True
+        #: The surface's nodes (sorted), the rows of a step's result.
+        self.nodes = np.flatnonzero(on_surface)
+        local = np.cumsum(on_surface) - 1  # a node's row among self.nodes
+        faces = local[quads]
+        size = len(self.nodes)
+        m = len(faces)
+        # Each undirected edge once.
+        tail = faces.ravel()
+        head = np.roll(faces, -1, axis=1).ravel()
+        key = np.unique(np.minimum(tail, head).astype(np.int64) * size + np.maximum(tail, head))
+        ends = np.column_stack([key // size, key % size]).ravel()
+        e = len(key)
+        del tail, head, key
+        # CSC from the tables directly: column j holds the nodes of face (edge) j.
+        self._faces = sparse.csc_matrix((np.full(4 * m, 0.25), faces.ravel(), np.arange(0, 4 * m + 1, 4)),
+                                        shape=(size, m))
+        self._edges = sparse.csc_matrix((np.full(2 * e, 0.5), ends, np.arange(0, 2 * e + 1, 2)),
+                                        shape=(size, e))
+        face_count = np.bincount(faces.ravel(), minlength=size)
+        valence = np.bincount(ends, minlength=size)
+        # (F + 2 R + (n - 3) P) / n with F = (4 / faces) A A^T P and R = (2 / n) B B^T P.
+        self._face_weight = (4.0 / face_count / valence)[:, None]
+        self._edge_weight = (4.0 / valence / valence)[:, None]
+        self._own_weight = ((valence - 3) / valence)[:, None]
+
+    def __call__(self, positions: np.ndarray) -> np.ndarray:
+        """New positions (len(self.nodes), 3) of the surface's nodes, from all ``positions`` (N, 3)."""
+        p = positions[self.nodes]
+        face_sum = self._faces @ (self._faces.T @ p)
+        edge_sum = self._edges @ (self._edges.T @ p)
+        return self._face_weight * face_sum + self._edge_weight * edge_sum + self._own_weight * p
 
 
 def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: float = 0.2,
@@ -151,14 +168,11 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     """
     a, b = model.regions[:, 0], model.regions[:, 1]
     n = len(model.nodes)
-    # Each node follows one surface: its block's, else the ground's (one
-    # operator made and narrowed to its nodes at a time, for the memory).
-    from_blocks = sparse.diags(roles.on_block.astype(float)) @ catmull_clark_operator(
-        model.quads[(a > 0) | (b > 0)], n)[0]
-    from_ground = sparse.diags((~roles.on_block).astype(float)) @ catmull_clark_operator(
-        model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)], n)[0]
-    W = from_blocks + from_ground
-    del from_blocks, from_ground
+    blocks = CatmullClarkStep(model.quads[(a > 0) | (b > 0)], n)
+    ground = CatmullClarkStep(model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)], n)
+    # Each node follows one surface: its block's, else the ground's.
+    from_blocks = roles.on_block[blocks.nodes]
+    from_ground = ~roles.on_block[ground.nodes]
     keep = roles.fixed_axes | ~roles.movable[:, None]
     nodes = model.nodes.copy()
     stats = {"moved": [], "refused": []}
@@ -166,7 +180,10 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     for _ in range(passes):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        proposal = np.where(keep, nodes, W @ nodes)
+        target = nodes.copy()
+        target[blocks.nodes[from_blocks]] = blocks(nodes)[from_blocks]
+        target[ground.nodes[from_ground]] = ground(nodes)[from_ground]
+        proposal = np.where(keep, nodes, target)
         wanted = np.any(proposal != nodes, axis=1)
         nodes, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled,
                                    state=faces)

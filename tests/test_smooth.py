@@ -1,0 +1,40 @@
+"""Vertex-only Catmull-Clark step (core.smooth) against a per-node reference."""
+import numpy as np
+import pytest
+
+from core.grid import VoxelGrid
+from core.smooth import CatmullClarkStep
+from core.surface import AIR_REGION, GROUND_REGION, SurfaceModel
+
+
+def catmull_clark_reference(nodes, quads, i):
+    """(F + 2 R + (n - 3) P) / n at node i, from its faces and edges, one by one."""
+    faces = [q for q in quads if i in q]
+    neighbours = set()
+    for q in faces:
+        k = list(q).index(i)
+        neighbours.update({q[(k + 1) % 4], q[(k - 1) % 4]})
+    n = len(neighbours)
+    f = np.mean([nodes[q].mean(axis=0) for q in faces], axis=0)
+    r = np.mean([(nodes[i] + nodes[j]) / 2 for j in neighbours], axis=0)
+    return (f + 2 * r + (n - 3) * nodes[i]) / n
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_step_is_catmull_clark_at_every_node_of_closed_and_open_surfaces(seed):
+    rng = np.random.default_rng(seed)
+    # Two random blocks of voxels on a ground layer, under air: the block
+    # surfaces are closed, the ground's is open at the domain box.
+    regions = np.full((6, 5, 5), AIR_REGION, dtype=np.int32)
+    regions[:, :, 0] = GROUND_REGION
+    regions[1:3, 1:4, 1:1 + rng.integers(1, 4)] = 1
+    regions[4, rng.integers(0, 4):, 1:3] = 2
+    model = SurfaceModel.from_regions(VoxelGrid(np.zeros(3), np.zeros(3), 1.0, regions.shape), regions)
+    nodes = model.nodes + rng.normal(scale=0.1, size=model.nodes.shape)  # not a lattice any more
+    a, b = model.regions[:, 0], model.regions[:, 1]
+    for faces in (model.quads[(a > 0) | (b > 0)], model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)]):
+        step = CatmullClarkStep(faces, len(nodes))
+        assert np.array_equal(step.nodes, np.unique(faces))
+        moved = step(nodes)
+        expected = np.array([catmull_clark_reference(nodes, faces, i) for i in step.nodes])
+        np.testing.assert_allclose(moved, expected, rtol=0, atol=1e-12)
