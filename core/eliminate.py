@@ -34,7 +34,7 @@ _FACES = 1 << 17
 
 def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
                           support: float = 0.6, extrude_roofs: bool = False, max_passes: int = 10,
-                          is_cancelled: Callable[[], bool] | None = None) -> int:
+                          is_cancelled: Callable[[], bool] | None = None, tree: cKDTree | None = None) -> int:
     """Turn unsupported boundary voxels into air, in place, until none is left.
 
     The paper's single pass leaves the voxels it exposes untested: a voxel
@@ -53,6 +53,8 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
         Support distance in voxel sizes (paper: 0.6).
     extrude_roofs : bool
         Also accept points above a wall face (airborne data, see module doc).
+    tree : cKDTree, optional
+        ``search_tree(points)``, when the caller has it (it is made otherwise).
 
     Returns
     -------
@@ -70,7 +72,7 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
     >>> eliminate_unsupported(lab, g, pts), lab.ravel().tolist()
     (1, [1, 2, 3, 3])
     """
-    test = _SupportTest(points, grid, support, extrude_roofs)
+    test = _SupportTest(points, grid, support, extrude_roofs, tree)
     flat = labels.reshape(-1)
     shape = np.asarray(labels.shape)
     stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
@@ -137,12 +139,13 @@ def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
 class _SupportTest:
     """Whether data supports faces; the KD-trees are built once for all passes."""
 
-    def __init__(self, points: np.ndarray, grid: VoxelGrid, support: float, extrude_roofs: bool):
+    def __init__(self, points: np.ndarray, grid: VoxelGrid, support: float, extrude_roofs: bool,
+                 tree: cKDTree | None = None):
         self.points = points
         self.grid = grid
         self.support = support
         self.extrude_roofs = extrude_roofs
-        self.tree = search_tree(points) if len(points) else None
+        self.tree = (tree if tree is not None else search_tree(points)) if len(points) else None
         self.tree_2d = search_tree(points[:, :2]) if len(points) and extrude_roofs else None
 
     def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:

@@ -11,6 +11,8 @@ find what a single run finds.
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 from scipy.spatial import cKDTree
 
@@ -87,8 +89,46 @@ def by_value_then_coordinates(value: np.ndarray, index: np.ndarray, data: np.nda
     return np.lexsort((point[..., 2], point[..., 1], point[..., 0], value), axis=1)[:, :k]
 
 
-def nearest_distance(points: np.ndarray, data: np.ndarray) -> np.ndarray:
-    """Distance from every point to the nearest data point."""
-    if len(data) == 0 or len(points) == 0:
-        return np.full(len(points), np.nan)
-    return search_tree(data).query(points, k=1, workers=-1)[0]
+def nearest_distance(points: np.ndarray, trees: Sequence[cKDTree], bound: float) -> np.ndarray:
+    """Distance from every point to the nearest point of any tree's data (NaN without data).
+
+    The first tree is searched in full. The others first only within
+    ``bound``, a search that stops early; where the nearest point so far is
+    farther than ``bound`` and they found nothing, within that distance. The minimum is
+    the distance a search of all the data at once finds: the trees over the
+    parts are built once for other steps, and a tree over their union
+    (10 M points on a city) is not.
+
+    Examples
+    --------
+    >>> near, far = search_tree(np.array([[0.0, 0, 1]])), search_tree(np.array([[0.0, 0, -5]]))
+    >>> nearest_distance(np.array([[0.0, 0, 0], [0, 0, -4]]), [near, far], 0.5).tolist()
+    [1.0, 1.0]
+    """
+    distance = np.full(len(points), np.inf)
+    searched = False
+    for tree in trees:
+        if tree.n == 0 or len(points) == 0:
+            continue
+        if not searched:
+            distance = tree.query(points, k=1, workers=-1)[0]
+            searched = True
+            continue
+        found = tree.query(points, k=1, distance_upper_bound=bound, workers=-1)[0]
+        # Nothing within bound, and nothing that near so far: searched again
+        # within bounds four times wider each time, each point as far as its
+        # distance so far (a farther point would not be the nearest). Points
+        # far from all the data (a roof above the ground) make a full search
+        # slow.
+        pending = np.flatnonzero(np.isinf(found) & (distance > bound))
+        limit = max(bound, 1e-300)
+        while len(pending):
+            limit *= 4
+            now = distance[pending] <= limit
+            if now.any():
+                found[pending[now]] = tree.query(points[pending[now]], k=1, distance_upper_bound=limit,
+                                                 workers=-1)[0]
+            pending = pending[~now]
+        np.minimum(distance, found, out=distance)
+    distance[np.isinf(distance)] = np.nan
+    return distance

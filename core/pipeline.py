@@ -44,7 +44,7 @@ from .ground import GroundLevel, column_ground_level
 from .heap import reusing_freed_memory
 from .manifold import make_well_composed, repair_height_field
 from .measure import measure_blocks
-from .neighbours import nearest_distance
+from .neighbours import nearest_distance, search_tree
 from .project import project_nodes
 from .reconstruction import Reconstruction
 from .smooth import NodeRoles, smooth
@@ -279,8 +279,11 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     lap("blocks")
 
     report(0.6, "Eliminating unsupported boundary voxels")
+    # One search tree over the building points serves the elimination, the
+    # projection and the distances measured at the end.
+    building_tree = search_tree(building)
     eliminate_unsupported(labels, grid, building, params.support, extrude_roofs=airborne,
-                          is_cancelled=is_cancelled)
+                          is_cancelled=is_cancelled, tree=building_tree)
     make_well_composed(labels, is_cancelled=is_cancelled)
     blocks, table, dropped_after = _blocks_above_thresholds(labels, grid, thresholds, is_cancelled)
     lap("eliminate")
@@ -322,7 +325,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         angle = params.max_projection_angle
         nodes, stats["projection_buildings"] = project_nodes(
             surface, nodes, roles, on_buildings, building, h, params.quality_threshold, angle,
-            is_cancelled=is_cancelled)
+            is_cancelled=is_cancelled, tree=building_tree)
         # Terrain nodes move along the (near vertical) terrain normal, away from
         # any other surface: the costly crossing test is kept for the buildings.
         nodes, stats["projection_ground"] = project_nodes(
@@ -332,10 +335,9 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         del ground_data
     mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
     # Distance of block nodes to the data (the nearest building or ground point).
-    data = np.concatenate([building, ground]) if len(building) else ground
     distance = np.full(len(nodes), np.nan)
-    distance[roles.on_block] = nearest_distance(nodes[roles.on_block], data)
-    del data
+    distance[roles.on_block] = nearest_distance(nodes[roles.on_block], [building_tree, search_tree(ground)], h)
+    del building_tree
     measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance)
     lap("measure")
     report(1.0, f"{len(table)} blocks")

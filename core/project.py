@@ -139,7 +139,8 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
 def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, select: np.ndarray,
                   data: np.ndarray, voxel_size: float, threshold: float,
                   max_angle: float = 45.0, max_distance: float = 1.5, check_crossings: bool = True,
-                  is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, dict]:
+                  is_cancelled: Callable[[], bool] | None = None,
+                  tree: cKDTree | None = None) -> tuple[np.ndarray, dict]:
     """Project the ``select`` nodes onto ``data`` through MLS planes.
 
     Parameters
@@ -161,6 +162,8 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
         Largest move and search radius, in voxel sizes.
     check_crossings : bool
         Undo moves that make a face cross another (:mod:`core.intersect`).
+    tree : cKDTree, optional
+        ``search_tree(data)``, when the caller has it (it is made otherwise).
 
     Returns
     -------
@@ -184,7 +187,8 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     usable = length[:, 0] > 1e-6
     normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
     p = nodes[idx_nodes]
-    tree = search_tree(data)
+    if tree is None:
+        tree = search_tree(data)
     radius = max_distance * voxel_size
     candidates = _candidates(tree, data, p, normal, radius, _TRIES, is_cancelled)
     cos_max = np.cos(np.radians(max_angle))

@@ -37,9 +37,14 @@ def test_nearest_marks_missing_neighbours_beyond_the_bound():
     assert dist[0, :2] == pytest.approx([0.2, 0.8])
 
 
-def test_nearest_distance_matches_brute_force():
+def test_nearest_distance_over_several_trees_matches_brute_force_over_their_union():
+    # Two parts of the data (buildings and ground): the second tree is first
+    # searched within a bound only, and in full where nothing is that near.
     rng = np.random.default_rng(1)
     data, points = rng.random((500, 3)) * 10, rng.random((200, 3)) * 12
     want = np.linalg.norm(points[:, None] - data[None], axis=2).min(axis=1)
-    np.testing.assert_allclose(nearest_distance(points, data), want, rtol=1e-14)
-    assert np.isnan(nearest_distance(points, data[:0])).all()
+    for split in (0, 1, 250, 499, 500):
+        for bound in (0.0, 0.3, 1.0, 100.0):
+            trees = [search_tree(data[:split]), search_tree(data[split:])]
+            np.testing.assert_array_equal(nearest_distance(points, trees, bound), want)
+    assert np.isnan(nearest_distance(points, [search_tree(data[:0])], 1.0)).all()
