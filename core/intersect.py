@@ -80,7 +80,7 @@ def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, nodes: np.ndarra
         for j in range(3):
             shared |= ta[i] == tb[j]
     a, b = a[~shared], b[~shared]
-    pa, pb = nodes[tri[a]], nodes[tri[b]]
+    pa, pb = _corners(nodes, tri[a]), _corners(nodes, tri[b])
     crossing = _edges_cross(pa, pb) | _edges_cross(pb, pa)
     a, b = a[crossing], b[crossing]
     swap = ~in_focus[a]
@@ -211,25 +211,48 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk
                 yield from map_blocks(search, parts[batch])
 
 
-def _edges_cross(edges_of: np.ndarray, faces: np.ndarray) -> np.ndarray:
-    """Whether an edge of each triangle in ``edges_of`` crosses the paired triangle."""
-    v0, v1, v2 = faces[:, 0], faces[:, 1], faces[:, 2]
-    e1, e2 = v1 - v0, v2 - v0
-    hit = np.zeros(len(faces), dtype=bool)
+def _corners(nodes: np.ndarray, tri: np.ndarray) -> list[list[np.ndarray]]:
+    """The corners of triangles ``tri`` as ``corner[k][c]``: coordinate ``c``
+    of corner ``k``, one contiguous array each."""
+    return [[nodes[:, c][tri[:, k]] for c in range(3)] for k in range(3)]
+
+
+def _edges_cross(edges_of: list[list[np.ndarray]], faces: list[list[np.ndarray]]) -> np.ndarray:
+    """Whether an edge of each triangle in ``edges_of`` crosses the paired
+    triangle (Moller-Trumbore), both given by :func:`_corners`.
+
+    One array per coordinate: numpy's (P, 3) products and ``einsum`` run
+    loops three elements long. The arithmetic is theirs to the last bit:
+    ``np.cross``, the ``einsum`` dot product (which, in numpy 1.24, adds the
+    x and z products first) and ``np.linalg.norm``.
+    """
+    def cross(u, v):
+        return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+
+    def dot(u, v):
+        return (u[0] * v[0] + u[2] * v[2]) + u[1] * v[1]
+
+    def norm(u):
+        return np.sqrt((u[0] * u[0] + u[1] * u[1]) + u[2] * u[2])
+
+    v0, v1, v2 = faces
+    e1 = [v1[c] - v0[c] for c in range(3)]
+    e2 = [v2[c] - v0[c] for c in range(3)]
+    scale = 1e-12 * np.maximum(norm(e1) * norm(e2), 1e-300)
+    hit = np.zeros(len(v0[0]), dtype=bool)
+    eps = 1e-9
     for i, j in ((0, 1), (1, 2), (2, 0)):
-        origin = edges_of[:, i]
-        direction = edges_of[:, j] - origin
-        h = np.cross(direction, e2)
-        det = np.einsum("ij,ij->i", e1, h)
-        ok = np.abs(det) > 1e-12 * np.maximum(np.linalg.norm(e1, axis=1) * np.linalg.norm(e2, axis=1), 1e-300) \
-            * np.maximum(np.linalg.norm(direction, axis=1), 1e-300)
+        origin = edges_of[i]
+        direction = [edges_of[j][c] - origin[c] for c in range(3)]
+        h = cross(direction, e2)
+        det = dot(e1, h)
+        ok = np.abs(det) > scale * np.maximum(norm(direction), 1e-300)
         inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
-        s = origin - v0
-        u = inv * np.einsum("ij,ij->i", s, h)
-        q = np.cross(s, e1)
-        v = inv * np.einsum("ij,ij->i", direction, q)
-        t = inv * np.einsum("ij,ij->i", e2, q)
-        eps = 1e-9
+        s = [origin[c] - v0[c] for c in range(3)]
+        u = inv * dot(s, h)
+        q = cross(s, e1)
+        v = inv * dot(direction, q)
+        t = inv * dot(e2, q)
         hit |= ok & (u > eps) & (v > eps) & (u + v < 1 - eps) & (t > eps) & (t < 1 - eps)
     return hit
 
