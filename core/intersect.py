@@ -29,6 +29,7 @@ from .errors import Cancelled
 from .neighbours import search_tree
 from .parallel import map_blocks, row_blocks, thread_count
 from .quality import best_split
+from .vectors import Vector, coordinates, cross, dot, length, minus
 
 #: Quantiles of the faces' reach that split them into size classes searched apart.
 _CLASS_QUANTILES = (0.9, 0.99)
@@ -80,7 +81,8 @@ def _crossing_of(a: np.ndarray, b: np.ndarray, tri: np.ndarray, nodes: np.ndarra
         for j in range(3):
             shared |= ta[i] == tb[j]
     a, b = a[~shared], b[~shared]
-    pa, pb = _corners(nodes, tri[a]), _corners(nodes, tri[b])
+    pa = [coordinates(nodes, tri[a, k]) for k in range(3)]
+    pb = [coordinates(nodes, tri[b, k]) for k in range(3)]
     crossing = _edges_cross(pa, pb) | _edges_cross(pb, pa)
     a, b = a[crossing], b[crossing]
     swap = ~in_focus[a]
@@ -211,44 +213,27 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, chunk
                 yield from map_blocks(search, parts[batch])
 
 
-def _corners(nodes: np.ndarray, tri: np.ndarray) -> list[list[np.ndarray]]:
-    """The corners of triangles ``tri`` as ``corner[k][c]``: coordinate ``c``
-    of corner ``k``, one contiguous array each."""
-    return [[nodes[:, c][tri[:, k]] for c in range(3)] for k in range(3)]
-
-
-def _edges_cross(edges_of: list[list[np.ndarray]], faces: list[list[np.ndarray]]) -> np.ndarray:
+def _edges_cross(edges_of: list[Vector], faces: list[Vector]) -> np.ndarray:
     """Whether an edge of each triangle in ``edges_of`` crosses the paired
-    triangle (Moller-Trumbore), both given by :func:`_corners`.
+    triangle (Moller-Trumbore).
 
-    One array per coordinate: numpy's (P, 3) products and ``einsum`` run
-    loops three elements long. The arithmetic is theirs to the last bit:
-    ``np.cross``, the ``einsum`` dot product (which, in numpy 1.24, adds the
-    x and z products first) and ``np.linalg.norm``.
+    Both are the triangles' three corners, each a :mod:`core.vectors`
+    vector (one array per coordinate, with numpy's arithmetic): the numbers
+    of (P, 3) tables, two to three times faster.
     """
-    def cross(u, v):
-        return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
-
-    def dot(u, v):
-        return (u[0] * v[0] + u[2] * v[2]) + u[1] * v[1]
-
-    def norm(u):
-        return np.sqrt((u[0] * u[0] + u[1] * u[1]) + u[2] * u[2])
-
     v0, v1, v2 = faces
-    e1 = [v1[c] - v0[c] for c in range(3)]
-    e2 = [v2[c] - v0[c] for c in range(3)]
-    scale = 1e-12 * np.maximum(norm(e1) * norm(e2), 1e-300)
+    e1, e2 = minus(v1, v0), minus(v2, v0)
+    scale = 1e-12 * np.maximum(length(e1) * length(e2), 1e-300)
     hit = np.zeros(len(v0[0]), dtype=bool)
     eps = 1e-9
     for i, j in ((0, 1), (1, 2), (2, 0)):
         origin = edges_of[i]
-        direction = [edges_of[j][c] - origin[c] for c in range(3)]
+        direction = minus(edges_of[j], origin)
         h = cross(direction, e2)
         det = dot(e1, h)
-        ok = np.abs(det) > scale * np.maximum(norm(direction), 1e-300)
+        ok = np.abs(det) > scale * np.maximum(length(direction), 1e-300)
         inv = np.divide(1.0, det, out=np.zeros_like(det), where=ok)
-        s = [origin[c] - v0[c] for c in range(3)]
+        s = minus(origin, v0)
         u = inv * dot(s, h)
         q = cross(s, e1)
         v = inv * dot(direction, q)

@@ -15,8 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .blocks import BlockRows
+from .parallel import map_blocks, row_blocks
 from .quality import best_split
 from .surface import SurfaceModel
+from .vectors import coordinates, cross, dot, length, minus
+
+#: Triangles measured at a time (a few MB of temporaries).
+_ROWS = 1 << 16
 
 
 @dataclass
@@ -75,17 +80,27 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     triangles = np.concatenate([split[outward].reshape(-1, 3), split[~outward].reshape(-1, 3)[:, ::-1]])
     tri_owner = np.repeat(owner, 2)
     quality = np.concatenate([split_quality[outward], best_split(nodes, quads[outward.sum():])[1]])
-    p = nodes[triangles]
-    cross = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    tri_area = 0.5 * np.linalg.norm(cross, axis=1)
     # Signed volume of the tetrahedra to a per-block reference point (any
     # point works for a closed surface; a nearby one keeps round-off small).
     count = np.bincount(tri_owner, minlength=n_blocks + 1)
-    reference = np.column_stack([np.bincount(tri_owner, weights=p[:, 0, c], minlength=n_blocks + 1)
+    first = coordinates(nodes, triangles[:, 0])
+    reference = np.column_stack([np.bincount(tri_owner, weights=first[c], minlength=n_blocks + 1)
                                  for c in range(3)]) / np.maximum(count, 1)[:, None]
-    r = p - reference[tri_owner][:, None, :]
-    six_v = np.einsum("ij,ij->i", r[:, 0], np.cross(r[:, 1], r[:, 2]))
-    nz = np.divide(cross[:, 2], 2 * tri_area, out=np.zeros_like(tri_area), where=tri_area > 0)
+    del first
+    tri_area, six_v, nz = np.empty(len(triangles)), np.empty(len(triangles)), np.empty(len(triangles))
+
+    def fill(rows: slice) -> None:
+        # A block of triangles at a time, one array per coordinate
+        # (core.vectors): no (T, 3, 3) table of corners, the numbers of one.
+        p = [coordinates(nodes, triangles[rows, k]) for k in range(3)]
+        twice_area = cross(minus(p[1], p[0]), minus(p[2], p[0]))
+        tri_area[rows] = area = 0.5 * length(twice_area)
+        centre = coordinates(reference, tri_owner[rows])
+        r = [minus(corner, centre) for corner in p]
+        six_v[rows] = dot(r[0], cross(r[1], r[2]))
+        nz[rows] = np.divide(twice_area[2], 2 * area, out=np.zeros_like(area), where=area > 0)
+
+    map_blocks(fill, row_blocks(len(triangles), _ROWS))
     limit = np.sin(np.radians(facade_tilt))
     roof = nz >= limit
     facade = np.abs(nz) < limit
@@ -99,10 +114,18 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     if node_distance is None:
         mean_dist = max_dist = np.full(n_blocks, np.nan)
     else:
-        # Each node once per block: unique (block, node) pairs.
+        # Each node once per block: the (block, node) pairs, by block then node.
         n_nodes = len(nodes)
-        pairs = np.unique(np.repeat(owner, 4).astype(np.int64) * n_nodes + quads.ravel())
-        pair_block, pair_node = pairs // n_nodes, pairs % n_nodes
+        node_block = np.zeros(n_nodes, dtype=np.int64)
+        node_block[quads] = owner[:, None]
+        if np.array_equal(node_block[quads], np.broadcast_to(owner[:, None], quads.shape)):
+            # Blocks share no node (well-composed voxels): each node has one
+            # block, and its pair comes without sorting them all.
+            pair_node = np.flatnonzero(node_block)
+            pair_block = node_block[pair_node]
+        else:
+            pairs = np.unique(np.repeat(owner, 4).astype(np.int64) * n_nodes + quads.ravel())
+            pair_block, pair_node = pairs // n_nodes, pairs % n_nodes
         d = node_distance[pair_node]
         per_node = np.bincount(pair_block, minlength=n_blocks + 1)[1:]
         mean_dist = per_block(d, pair_block) / np.maximum(per_node, 1)

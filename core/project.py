@@ -32,6 +32,7 @@ from .parallel import map_blocks, row_blocks
 from .quality import accept_moves
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
+from .vectors import coordinates, cross, length
 
 #: Data points examined around each node, planes tried per node, points per plane.
 _NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
@@ -59,12 +60,9 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     normal = np.empty((3, len(quads)))
 
     def fill(rows: slice) -> None:
-        corner = quads[rows].T
-        x = [nodes[:, c][corner] for c in range(3)]  # (4, rows) each
-        u = [x[c][2] - x[c][0] for c in range(3)]
-        v = [x[c][3] - x[c][1] for c in range(3)]
-        w = np.stack([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]])
-        normal[:, rows] = w / np.maximum(np.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]), 1e-300)
+        x = coordinates(nodes, quads[rows].T)  # (4, rows) each
+        w = np.stack(cross([x[c][2] - x[c][0] for c in range(3)], [x[c][3] - x[c][1] for c in range(3)]))
+        normal[:, rows] = w / np.maximum(length(w), 1e-300)
 
     # Blocks of quads on all cores: a block's temporaries stay in the cache.
     map_blocks(fill, row_blocks(len(quads), _FIT_ROWS))
@@ -73,8 +71,8 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
         for c in range(3):
             summed[c] += np.bincount(quads[:, k], weights=normal[c], minlength=n)
     summed = summed.T
-    length = np.linalg.norm(summed, axis=1, keepdims=True)
-    return np.divide(summed, length, out=np.zeros(summed.shape), where=length > 0)  # float when no quad
+    size = np.linalg.norm(summed, axis=1, keepdims=True)
+    return np.divide(summed, size, out=np.zeros(summed.shape), where=size > 0)  # float when no quad
 
 
 def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
@@ -174,7 +172,7 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rows = ([a00 - value, a01, a02], [a01, a11 - value, a12], [a02, a12, a22 - value])
         best, best_length2 = None, None
         for u, v in ((rows[0], rows[1]), (rows[0], rows[2]), (rows[1], rows[2])):
-            c = [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+            c = cross(u, v)
             length2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
             if best is None:
                 best, best_length2 = c, length2
@@ -182,11 +180,11 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
                 longer = length2 > best_length2
                 best = [np.where(longer, c[i], best[i]) for i in range(3)]
                 best_length2 = np.where(longer, length2, best_length2)
-        length = np.sqrt(best_length2)
-        found = length > 0
-        length = np.where(found, length, 1.0)
-        return np.stack([np.where(found, best[0] / length, 0.0), np.where(found, best[1] / length, 0.0),
-                         np.where(found, best[2] / length, 1.0)], axis=1)
+        size = np.sqrt(best_length2)
+        found = size > 0
+        size = np.where(found, size, 1.0)
+        return np.stack([np.where(found, best[0] / size, 0.0), np.where(found, best[1] / size, 0.0),
+                         np.where(found, best[2] / size, 1.0)], axis=1)
 
     normal = null_vector(low)
     # The eigenvalue from the closed form is off by round-off times the
@@ -243,9 +241,9 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     normal = outward_normals(model, nodes, roles, select)[idx_nodes]
     # Constrained coordinates are not moved: drop them from the direction.
     normal[roles.fixed_axes[idx_nodes]] = 0.0
-    length = np.linalg.norm(normal, axis=1, keepdims=True)
-    usable = length[:, 0] > 1e-6
-    normal = np.divide(normal, length, out=np.zeros_like(normal), where=length > 0)
+    size = np.linalg.norm(normal, axis=1, keepdims=True)
+    usable = size[:, 0] > 1e-6
+    normal = np.divide(normal, size, out=np.zeros_like(normal), where=size > 0)
     p = nodes[idx_nodes]
     if tree is None:
         tree = search_tree(data)

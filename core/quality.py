@@ -21,6 +21,7 @@ import numpy as np
 
 from .errors import Cancelled
 from .parallel import map_blocks, row_blocks
+from .vectors import coordinates, cross, dot, length
 
 #: Quality of a voxel face (a square split along a diagonal).
 SQUARE_QUALITY = float(4 * np.sqrt(3) * 0.5 / ((2 + np.sqrt(2)) * np.sqrt(2)))
@@ -134,25 +135,25 @@ def _split_quality_of(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray,
     corner = quads.T
     # Gathered from the (N, 3) table: a node's three coordinates share a
     # cache line, and no copy of the N nodes is made for a few quads.
-    x = [nodes[:, c][corner] for c in range(3)]  # (4, M) each
+    x = coordinates(nodes, corner)  # (4, M) each
 
     def edge(i: int, j: int) -> list[np.ndarray]:
         return [x[c][j] - x[c][i] for c in range(3)]
 
     d01, d12, d23, d30, d02, d13 = edge(0, 1), edge(1, 2), edge(2, 3), edge(3, 0), edge(0, 2), edge(1, 3)
-    l01, l12, l23, l30, l02, l13 = (_length(d) for d in (d01, d12, d23, d30, d02, d13))
-    normal = [0.5 * c for c in _cross(d02, d13)]
+    l01, l12, l23, l30, l02, l13 = (length(d) for d in (d01, d12, d23, d30, d02, d13))
+    normal = [0.5 * c for c in cross(d02, d13)]
     scale = 4 * np.sqrt(3)
 
     def quality(ab, bc, ca, u, v):
         # triangle_quality with sides ab, bc, ca and cross(b - a, c - a) = cross(u, v),
         # zero when the triangle faces away from the quad.
-        cross = _cross(u, v)
-        area = 0.5 * _length(cross)
+        twice_area = cross(u, v)
+        area = 0.5 * length(twice_area)
         longest = np.maximum(np.maximum(ab, bc), ca)
         denominator = (ab + bc + ca) * longest
         q = np.divide(scale * area, denominator, out=np.zeros_like(area), where=denominator > 0)
-        facing = (cross[0] * normal[0] + cross[2] * normal[2]) + cross[1] * normal[1] > 0
+        facing = dot(twice_area, normal) > 0
         return np.where(facing, q, 0.0)
 
     # |a - c| = |c - a| exactly, and p3 - p0 = -(p0 - p3) exactly.
@@ -160,16 +161,6 @@ def _split_quality_of(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray,
     second = np.minimum(quality(l12, l23, l13, d12, d13), quality(l13, l30, l01, d13, [-c for c in d01]))
     use_second = second > first
     return use_second, np.where(use_second, second, first), np.stack(normal, axis=1)
-
-
-def _cross(u: list[np.ndarray], v: list[np.ndarray]) -> list[np.ndarray]:
-    """Cross product of vectors given as three coordinate arrays (the arithmetic of ``np.cross``)."""
-    return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
-
-
-def _length(v: list[np.ndarray]) -> np.ndarray:
-    """Length of vectors given as three coordinate arrays (the arithmetic of ``np.linalg.norm``)."""
-    return np.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
 
 
 @dataclass

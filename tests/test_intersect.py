@@ -173,7 +173,8 @@ def test_edge_crossings_per_coordinate_match_the_corner_tables_bit_for_bit():
     # The narrow phase on one array per coordinate does numpy's (P, 3)
     # arithmetic: on near-degenerate pairs (edges grazing a triangle, at
     # every scale) its answers equal the tables' ones exactly.
-    from core.intersect import _corners, _edges_cross
+    from core.intersect import _edges_cross
+    from core.vectors import coordinates
 
     rng = np.random.default_rng(8)
     nodes = rng.normal(size=(3000, 3)) * 10.0 ** rng.integers(-6, 4, size=(3000, 1))
@@ -188,5 +189,6 @@ def test_edge_crossings_per_coordinate_match_the_corner_tables_bit_for_bit():
     a = a.copy()
     a[graze, 0] = 3000 + np.arange(graze.sum())
     expected = _reference_edges_cross(nodes[a], nodes[b])
-    got = _edges_cross(_corners(nodes, a), _corners(nodes, b))
+    got = _edges_cross([coordinates(nodes, a[:, k]) for k in range(3)],
+                       [coordinates(nodes, b[:, k]) for k in range(3)])
     assert np.array_equal(got, expected) and 0 < expected.sum() < len(a)
