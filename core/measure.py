@@ -91,7 +91,8 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
 
     def fill(rows: slice) -> None:
         # A block of triangles at a time, one array per coordinate
-        # (core.vectors): no (T, 3, 3) table of corners, the numbers of one.
+        # (core.vectors): the numbers of a (T, 3, 3) table of corners
+        # without the table (hundreds of MB on a city).
         p = [coordinates(nodes, triangles[rows, k]) for k in range(3)]
         twice_area = cross(minus(p[1], p[0]), minus(p[2], p[0]))
         tri_area[rows] = area = 0.5 * length(twice_area)

@@ -94,10 +94,10 @@ def nearest_distance(points: np.ndarray, trees: Sequence[cKDTree], bound: float)
 
     The first tree is searched in full. The others first only within
     ``bound``, a search that stops early; where the nearest point so far is
-    farther than ``bound`` and they found nothing, within that distance. The minimum is
-    the distance a search of all the data at once finds: the trees over the
-    parts are built once for other steps, and a tree over their union
-    (10 M points on a city) is not.
+    farther than ``bound`` and they found nothing, within that distance.
+    The minimum is the distance a search of all the data at once finds: the
+    trees over the parts are built once for other steps, and a tree over
+    their union (10 M points on a city) is not.
 
     Examples
     --------

@@ -145,8 +145,9 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     it to 1e-13 wherever the two smallest eigenvalues differ by more than
     1e-3 of the largest (the planes that count as flat), the eigenvalues to
     1e-9 of the largest (near a double root; 1e-15 elsewhere). Only the lower
-    triangle is read. A matrix whose smallest eigenvalue is not isolated
-    (no null vector) gets (0, 0, 1).
+    triangle is read. Where the smallest eigenvalue is double, any unit
+    vector of its plane may come, as from ``eigh``; where every cross
+    product is zero (a multiple of the identity), (0, 0, 1).
 
     Examples
     --------
@@ -190,7 +191,10 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     # The eigenvalue from the closed form is off by round-off times the
     # largest one, which tilts the vector by ~1e-11 rad on flat data: the
     # Rayleigh quotient of that vector is exact to second order.
-    refined = np.einsum("qc,qc->q", normal, np.einsum("qij,qj->qi", cov, normal))
+    v = [normal[:, 0], normal[:, 1], normal[:, 2]]
+    cov_v = [a00 * v[0] + a01 * v[1] + a02 * v[2], a01 * v[0] + a11 * v[1] + a12 * v[2],
+             a02 * v[0] + a12 * v[1] + a22 * v[2]]
+    refined = v[0] * cov_v[0] + v[1] * cov_v[1] + v[2] * cov_v[2]
     return null_vector(refined), values
 
 

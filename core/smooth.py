@@ -88,8 +88,9 @@ class CatmullClarkStep:
     (edges') nodes: ``A`` (nodes x faces, 1/4 per corner) gives the face
     centres ``A.T @ P``, and ``A @ centres`` a node's sum of them; ``B``
     (nodes x edges, 1/2 per end) does the same with the edge midpoints. Two
-    sparse products with a vector per pass: the single ``n x n`` operator
-    ``W`` took products of these sparse matrices, which cost ten passes.
+    sparse products with the positions per pass: the single ``n x n``
+    operator made from products of these matrices took longer to build than
+    ten passes (3.4-5 s for 1.8 M quads, a pass 0.3 s).
 
     Parameters
     ----------
