@@ -89,6 +89,30 @@ class VoxelGrid:
         np.clip(ijk, 0, np.asarray(self.shape) - 1, out=ijk)
         return ijk
 
+    def column_of(self, points: np.ndarray, chunk: int = BIN_CHUNK) -> np.ndarray:
+        """Column number ``i * ny + j`` of each local point, ``(i, j)`` as in :meth:`cell_of`.
+
+        From x and y only, a chunk of points at a time: :meth:`cell_of` on
+        millions of ground points makes four (N, 3) temporaries, each
+        page-faulted afresh (1 s on the 1 km city, 0.3 s this way).
+
+        Examples
+        --------
+        >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (4, 3, 2))
+        >>> g.column_of(np.array([[0.5, 2.5, 1.2], [3.5, 0.5, 9.0], [-1.0, 9.0, 0.0]])).tolist()
+        [2, 9, 2]
+        """
+        nx, ny, _ = self.shape
+        points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+        upper = np.array([nx - 1, ny - 1], dtype=np.float64)
+        column = np.empty(len(points), dtype=np.int64)
+        for start in range(0, len(points), chunk):
+            # The operations of cell_of, in the same order, so the floors agree bit for bit.
+            c = np.floor((points[start:start + chunk, :2] - self.origin[:2]) / self.voxel_size)
+            np.clip(c, 0.0, upper, out=c)
+            column[start:start + len(c)] = c[:, 0].astype(np.int64) * ny + c[:, 1].astype(np.int64)
+        return column
+
     def voxel_number(self, ijk: np.ndarray) -> np.ndarray:
         """Paper eq. (1): ``i + nx*j + nx*ny*k``."""
         nx, ny, _ = self.shape

@@ -70,8 +70,7 @@ def column_ground_level(grid: VoxelGrid, ground_points: np.ndarray) -> GroundLev
         raise UrbanvoxError("No ground point: set the ground classes (GROUND_CLASSES) "
                             "to the codes your data uses for the ground.")
     nx, ny, _ = grid.shape
-    cells = grid.cell_of(ground_points)
-    column = cells[:, 0] * ny + cells[:, 1]
+    column = grid.column_of(ground_points)
     counts = np.bincount(column, minlength=nx * ny)
     sums = np.bincount(column, weights=ground_points[:, 2], minlength=nx * ny)
     observed = counts > 0

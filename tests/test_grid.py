@@ -41,6 +41,16 @@ def test_points_on_cell_boundaries_and_outside_the_grid_are_clipped_alike():
     np.testing.assert_array_equal(grid.occupied_cells(points), unique_cells(grid, points))
 
 
+
+def test_columns_are_those_of_cell_of_on_boundaries_and_outside_the_grid():
+    grid = VoxelGrid(np.zeros(3), np.array([0.0, 0.0, -1.0]), 0.5, (6, 5, 4))
+    edges = np.array([0.0, 0.5, 1.0, 2.5, 3.0, -0.5, 7.25, 1e6, -1e6, 0.49999999999999994])
+    points = np.stack(np.meshgrid(edges, edges, edges, indexing="ij"), axis=-1).reshape(-1, 3)
+    cells = grid.cell_of(points)
+    for chunk in (7, 1 << 16):
+        np.testing.assert_array_equal(grid.column_of(points, chunk=chunk), cells[:, 0] * 5 + cells[:, 1])
+
+
 def test_las_like_points_with_large_offsets_match_unique():
     """Coordinates stored to the millimetre at LV95 magnitudes, many exactly on voxel
     boundaries, in acquisition (scan-line) order: the real files' case."""
