@@ -29,6 +29,7 @@ from .errors import Cancelled
 from .neighbours import search_tree
 from .parallel import map_blocks, row_blocks, thread_count
 from .quality import best_split
+from .topology import touching
 from .vectors import Vector, coordinates, cross, dot, length, minus
 
 #: Quantiles of the faces' reach that split them into size classes searched apart.
@@ -282,7 +283,7 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     # since the first round. A pair that crossed then lost every move of its
     # nodes, so a pair found later has a triangle changed since; the others
     # were tested then and need no new test.
-    seeds = np.flatnonzero(moved[quads].any(axis=1))
+    seeds = np.flatnonzero(touching(moved, quads))
     changed = np.zeros(len(quads), dtype=bool)
     for _ in range(max_rounds):
         pairs = _crossing_quads(positions, quads, triangles, split, centre, reach, seeds, moved, near,
@@ -301,7 +302,7 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
                 np.maximum(old[culprits], new[culprits]).max(axis=0) + span)
         reverted = np.zeros(len(old), dtype=bool)
         reverted[culprits] = True
-        touched = np.flatnonzero(reverted[quads].any(axis=1))
+        touched = np.flatnonzero(touching(reverted, quads))
         centre[touched], reach[touched] = _balls(positions, quads[touched])
         split[touched] = False
         changed[touched] = True
@@ -331,7 +332,7 @@ def _crossing_quads(positions: np.ndarray, quads: np.ndarray, triangles: np.ndar
         split[todo] = True
     # Triangle 2 i + k here is triangle k of quad sub[i].
     tri = triangles[np.column_stack([2 * sub, 2 * sub + 1]).ravel()]
-    in_focus = moved[tri].any(axis=1)
+    in_focus = touching(moved, tri)
     if near is not None:
         # The centre, as the mean of the three corners (summed in their order).
         mid = (positions[tri[:, 0]] + positions[tri[:, 1]] + positions[tri[:, 2]]) / 3

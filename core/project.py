@@ -32,6 +32,7 @@ from .parallel import map_blocks, row_blocks
 from .quality import accept_moves
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
+from .topology import changed_rows, touching
 from .vectors import coordinates, cross, length
 
 #: Data points examined around each node, planes tried per node, points per plane.
@@ -95,7 +96,7 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
         if wanted.any():
             # The faces around the wanted nodes, in their order: each node's
             # sum runs over the same faces in the same order as with all faces.
-            quads = quads[wanted[quads].any(axis=1)]
+            quads = quads[touching(wanted, quads)]
             normal[wanted] = node_normals(nodes, quads, n)[wanted]
     return normal
 
@@ -276,7 +277,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     stats["no_plane"] = int((~done).sum())
     proposal = nodes.copy()
     proposal[idx_nodes] = np.where(roles.fixed_axes[idx_nodes], p, target)
-    wanted = np.any(proposal != nodes, axis=1)
+    wanted = changed_rows(proposal, nodes)
     result, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled)
     # A node pushed along its normal may cross a face of a thin neighbouring part.
     stats["crossing"] = 0

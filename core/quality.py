@@ -21,6 +21,7 @@ import numpy as np
 
 from .errors import Cancelled
 from .parallel import map_blocks, row_blocks
+from .topology import changed_rows, touching
 from .vectors import coordinates, cross, dot, length
 
 #: Quality of a voxel face (a square split along a diagonal).
@@ -211,8 +212,8 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
     moved : ndarray of bool, shape (N,)
         Nodes whose move was kept.
     """
-    moving = np.any(new != old, axis=1)
-    faces = np.flatnonzero(moving[quads].any(axis=1))
+    moving = changed_rows(new, old)
+    faces = np.flatnonzero(touching(moving, quads))
     sub = quads[faces]
     if state is None:
         _, q_old, n_old = _split_quality(old, sub)
@@ -246,7 +247,7 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
         moving[undo] = False
         reverted = np.zeros(len(old), dtype=bool)
         reverted[undo] = True
-        check = np.flatnonzero(reverted[sub].any(axis=1))
+        check = np.flatnonzero(touching(reverted, sub))
     if state is not None:
         state.quality[faces], state.normal[faces] = q_now, n_now
         state.known[faces[check]] = False  # out of rounds before their check

@@ -30,6 +30,7 @@ from scipy import sparse
 from .errors import Cancelled
 from .quality import FaceState, accept_moves
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel
+from .topology import changed_rows
 
 
 @dataclass
@@ -185,7 +186,7 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
         target[blocks.nodes[from_blocks]] = blocks(nodes)[from_blocks]
         target[ground.nodes[from_ground]] = ground(nodes)[from_ground]
         proposal = np.where(keep, nodes, target)
-        wanted = np.any(proposal != nodes, axis=1)
+        wanted = changed_rows(proposal, nodes)
         nodes, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled,
                                    state=faces)
         stats["moved"].append(int(kept.sum()))

@@ -14,6 +14,34 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 
+def touching(marked: np.ndarray, faces: np.ndarray) -> np.ndarray:
+    """Which faces have a corner at a marked node: ``marked[faces].any(axis=1)``.
+
+    One gather per corner column: numpy's ``any`` over rows three or four
+    long costs three times as much on millions of faces.
+
+    Examples
+    --------
+    >>> touching(np.array([False, True, False, False]), np.array([[0, 1, 2], [0, 2, 3]])).tolist()
+    [True, False]
+    """
+    hit = marked[faces[:, 0]]
+    for k in range(1, faces.shape[1]):
+        hit |= marked[faces[:, k]]
+    return hit
+
+
+def changed_rows(new: np.ndarray, old: np.ndarray) -> np.ndarray:
+    """Rows of two (N, 3) position tables that differ: ``np.any(new != old, axis=1)``.
+
+    Examples
+    --------
+    >>> changed_rows(np.array([[0.0, 1, 2], [3, 4, 5]]), np.array([[0.0, 1, 2], [3, 4, 6]])).tolist()
+    [False, True]
+    """
+    return (new[:, 0] != old[:, 0]) | (new[:, 1] != old[:, 1]) | (new[:, 2] != old[:, 2])
+
+
 @dataclass(frozen=True)
 class TopologyReport:
     """What :func:`check_surface` found.
