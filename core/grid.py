@@ -94,7 +94,8 @@ class VoxelGrid:
 
         From x and y only, a chunk of points at a time: :meth:`cell_of` on
         millions of ground points makes four (N, 3) temporaries, each
-        page-faulted afresh (1 s on the 1 km city, 0.3 s this way).
+        page-faulted afresh (1 s on the 1 km city's 8.7 M ground points, 0.15 s
+        this way).
 
         Examples
         --------

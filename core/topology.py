@@ -2,8 +2,10 @@
 
 These are the checks every output must pass (a volume mesher or a solver
 accepts a surface only if it is closed and manifold), and the measures the
-block attributes use. Faces are given as an ``(M, k)`` array of node indices
-(quads or triangles), all oriented the same way round.
+block attributes use; also which faces touch given nodes, and which nodes
+moved, the selections every quality-controlled step makes. Faces are given
+as an ``(M, k)`` array of node indices (quads or triangles), all oriented
+the same way round.
 """
 from __future__ import annotations
 

@@ -39,7 +39,7 @@ def test_nearest_marks_missing_neighbours_beyond_the_bound():
 
 def test_nearest_distance_over_several_trees_matches_brute_force_over_their_union():
     # Two parts of the data (buildings and ground): the second tree is first
-    # searched within a bound only, and in full where nothing is that near.
+    # searched within a bound, then within each point's distance so far.
     rng = np.random.default_rng(1)
     data, points = rng.random((500, 3)) * 10, rng.random((200, 3)) * 12
     want = np.linalg.norm(points[:, None] - data[None], axis=2).min(axis=1)

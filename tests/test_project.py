@@ -1,4 +1,4 @@
-"""Nodal normals of the projection (core.project) against the paper's definition."""
+"""Node and plane normals of the projection (core.project) against their definitions."""
 import numpy as np
 
 from core.grid import VoxelGrid
