@@ -54,9 +54,8 @@ def pipeline_grids(ground: np.ndarray, building: np.ndarray, crs, voxel_size: fl
     h = voxel_size / m
     groups = [(ground, building)]
     if len(building):
-        cluster = split_clusters(np.concatenate([ground, building]), max(50.0 / m, 20 * h))
-        if cluster.max() > 0:
-            gc, bc = cluster[:len(ground)], cluster[len(ground):]
+        gc, bc = split_clusters([ground, building], max(50.0 / m, 20 * h))
+        if gc.max() > 0 or bc.max() > 0:
             groups = [(ground[gc == c], building[bc == c]) for c in np.unique(bc) if (gc == c).any()]
     for g, b in groups:
         grid = GridWindow.around(g, b, h).grid(h)

@@ -13,6 +13,8 @@ A point cloud with ground points everywhere forms a single cluster.
 """
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 from scipy import ndimage
 
@@ -23,22 +25,32 @@ from .reconstruction import Reconstruction
 from .surface import SurfaceModel
 
 
-def split_clusters(points: np.ndarray, gap: float) -> np.ndarray:
-    """Cluster index of every point: groups of ``gap``-sized cells touching (8-neighbours).
+def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
+    """Cluster index of every point of each array: groups of ``gap``-sized
+    cells touching (8-neighbours), over the points of all the arrays.
+
+    The arrays (ground and building points) are not concatenated: a copy of
+    a city's points is hundreds of MB. A single cluster, the usual case,
+    gives arrays of zeros without looking the points up again.
 
     Examples
     --------
     >>> pts = np.array([[0, 0, 0], [10, 0, 0], [500, 0, 0]], float)
-    >>> split_clusters(pts, 50.0).tolist()
-    [0, 0, 1]
+    >>> [c.tolist() for c in split_clusters([pts[:2], pts[2:]], 50.0)]
+    [[0, 0], [1]]
     """
-    cell = np.floor(points[:, :2] / gap).astype(np.int64)
-    cell -= cell.min(axis=0)
-    shape = cell.max(axis=0) + 1
+    cells = [np.floor(points[:, :2] / gap).astype(np.int64) for points in parts]
+    lower = np.min([c.min(axis=0) for c in cells if len(c)], axis=0)
+    for c in cells:
+        c -= lower
+    shape = np.max([c.max(axis=0) for c in cells if len(c)], axis=0) + 1
     occupied = np.zeros(shape, dtype=bool)
-    occupied[cell[:, 0], cell[:, 1]] = True
-    labels, _ = ndimage.label(occupied, structure=np.ones((3, 3), bool))
-    return labels[cell[:, 0], cell[:, 1]] - 1
+    for c in cells:
+        occupied[c[:, 0], c[:, 1]] = True
+    labels, n = ndimage.label(occupied, structure=np.ones((3, 3), bool))
+    if n <= 1:
+        return [np.zeros(len(c), dtype=labels.dtype) for c in cells]
+    return [labels[c[:, 0], c[:, 1]] - 1 for c in cells]
 
 
 def merge(parts: list[Reconstruction]) -> Reconstruction:

@@ -239,9 +239,10 @@ class GridWindow:
         extent), with one ground layer under the lowest point and the paper's
         empty top row."""
         h = voxel_size
-        everything = np.concatenate([ground, building]) if len(building) else ground
-        lower = everything.min(axis=0)
-        upper = everything.max(axis=0)
+        # The bounds of both sets, without a copy of all the points.
+        present = [points for points in (ground, building) if len(points)]
+        lower = np.min([points.min(axis=0) for points in present], axis=0)
+        upper = np.max([points.max(axis=0) for points in present], axis=0)
         if extent is not None:
             lower[:2] = extent[:2]
             upper[:2] = np.asarray(extent[2:]) - 1e-9 * h  # the last column ends at xmax

@@ -237,10 +237,10 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         raise UrbanvoxError("No ground point: check the ground classes (GROUND_CLASSES) "
                             "or give a ground mesh.")
     if split and params.extent is None and len(building):
-        cluster = split_clusters(np.concatenate([ground, building]), max(50.0 / m, 20 * h))
-        if cluster.max() > 0:
-            return _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warnings,
-                                         progress, is_cancelled, tiles)
+        ground_cluster, building_cluster = split_clusters([ground, building], max(50.0 / m, 20 * h))
+        if ground_cluster.max() > 0 or building_cluster.max() > 0:
+            return _reconstruct_clusters(ground, building, ground_cluster, building_cluster, crs, params,
+                                         airborne, warnings, progress, is_cancelled, tiles)
     if window is None:
         window = GridWindow.around(ground, building, h, params.extent)
         if tiles is not None and tiles.cuts(window, params.voxel_size):
@@ -350,10 +350,9 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
                           timings=timings, stats=stats)
 
 
-def _reconstruct_clusters(ground, building, cluster, crs, params, airborne, warnings, progress,
-                          is_cancelled, tiles) -> Reconstruction:
+def _reconstruct_clusters(ground, building, ground_cluster, building_cluster, crs, params, airborne,
+                          warnings, progress, is_cancelled, tiles) -> Reconstruction:
     """Reconstruct every cluster that has buildings on its own grid; merge."""
-    ground_cluster, building_cluster = cluster[:len(ground)], cluster[len(ground):]
     wanted = np.unique(building_cluster)
     parts = []
     for n, c in enumerate(wanted):
