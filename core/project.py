@@ -29,11 +29,11 @@ from .errors import Cancelled
 from .intersect import undo_crossings
 from .neighbours import by_value_then_coordinates, nearest, search_tree
 from .parallel import map_blocks, row_blocks
-from .quality import accept_moves
+from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
 from .topology import changed_rows, touching
-from .vectors import coordinates, cross, length
+from .vectors import cross, dot, length
 
 #: Data points examined around each node, planes tried per node, points per plane.
 _NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
@@ -61,8 +61,8 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     normal = np.empty((3, len(quads)))
 
     def fill(rows: slice) -> None:
-        x = coordinates(nodes, quads[rows].T)  # (4, rows) each
-        w = np.stack(cross([x[c][2] - x[c][0] for c in range(3)], [x[c][3] - x[c][1] for c in range(3)]))
+        # Halving the cross product is exact: the unit normal is unchanged.
+        w = quad_normals(nodes, quads[rows]).T
         normal[:, rows] = w / np.maximum(length(w), 1e-300)
 
     # Blocks of quads on all cores: a block's temporaries stay in the cache.
@@ -376,10 +376,10 @@ def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal:
     elementwise, so the blocks (run on all cores, :mod:`core.parallel`) give
     the numbers of one pass; it is that of
     ``offset = data[near] - p``, ``along = np.einsum("qkc,qc->qk", offset,
-    normal)`` (which, in numpy 1.24, adds the products of x and z first, then
-    y's) and ``np.linalg.norm(offset - along * normal)``, one (Q, K) array
-    per coordinate (operations on (Q, K, 3) arrays broadcast along an axis of
-    three run ufunc loops three elements long).
+    normal)`` and ``np.linalg.norm(offset - along * normal)``, one (Q, K)
+    array per coordinate with :mod:`core.vectors` (operations on (Q, K, 3)
+    arrays broadcast along an axis of three run ufunc loops three elements
+    long).
 
     Examples
     --------
@@ -394,10 +394,9 @@ def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal:
         x = data[np.where(found, near[block], 0)]
         q, n = p[block], normal[block]
         offset = [x[..., c] - q[:, c, None] for c in range(3)]
-        term = [offset[c] * n[:, c, None] for c in range(3)]
-        along = (term[0] + term[2]) + term[1]
-        across = [offset[c] - along * n[:, c, None] for c in range(3)]
-        distance = np.sqrt(across[0] * across[0] + across[1] * across[1] + across[2] * across[2])
+        direction = [n[:, c, None] for c in range(3)]
+        along = dot(offset, direction)
+        distance = length([offset[c] - along * direction[c] for c in range(3)])
         distance[~found] = np.inf
         out[block] = distance
 

@@ -48,9 +48,21 @@ def triangle_quality(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 
 def quad_normals(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
-    """Area-weighted normal of each quad (cross product of its diagonals, halved)."""
-    p = nodes[quads]
-    return 0.5 * np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 1])
+    """Area-weighted normal of each quad (cross product of its diagonals, halved).
+
+    One array per coordinate (:mod:`core.vectors`), the arithmetic of
+    ``0.5 * np.cross(p2 - p0, p3 - p1)``.
+
+    Examples
+    --------
+    A 2 x 1 rectangle in the plane z = 0 faces up with its area:
+
+    >>> quad_normals(np.array([[0.0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0]]), np.array([[0, 1, 2, 3]]))[:, 2]
+    array([2.])
+    """
+    x = coordinates(nodes, quads.T)  # (4, M) each
+    return 0.5 * np.stack(cross([x[c][2] - x[c][0] for c in range(3)], [x[c][3] - x[c][1] for c in range(3)]),
+                          axis=1)
 
 
 def best_split(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
