@@ -84,10 +84,38 @@ def best_split(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.nda
     >>> tri.tolist()
     [[1, 2, 3], [1, 3, 0]]
     """
-    use_second, quality, _ = _split_quality(nodes, quads)
-    order = np.where(use_second[:, None], np.array([1, 2, 3, 1, 3, 0]), np.array([0, 1, 2, 0, 2, 3]))
-    triangles = np.take_along_axis(quads, order, axis=1).reshape(-1, 3)
-    return triangles, quality
+    use_second, quality, _ = _split_quality(nodes, quads, normals=False)
+    return split_along(quads, use_second), quality
+
+
+def best_diagonal(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
+    """Whether each quad's best split (:func:`best_split`) is along its diagonal 1-3.
+
+    Examples
+    --------
+    >>> nodes = np.array([[0, 0, 0], [1, -0.2, 0], [2, 0, 0], [1, 0.2, 0]], float)
+    >>> best_diagonal(nodes, np.array([[0, 1, 2, 3]]))
+    array([ True])
+    """
+    return _split_quality(nodes, quads, normals=False)[0]
+
+
+def split_along(quads: np.ndarray, use_second: np.ndarray, dtype: type | None = None) -> np.ndarray:
+    """The two triangles of every quad, split along diagonal 1-3 where
+    ``use_second``, else 0-2 (rows ``2m`` and ``2m + 1`` from quad ``m``, in
+    its orientation), as ``dtype`` (default: that of ``quads``).
+
+    Made one column at a time: no (M, 6) table of choices.
+
+    Examples
+    --------
+    >>> split_along(np.array([[0, 1, 2, 3], [4, 5, 6, 7]]), np.array([False, True])).tolist()
+    [[0, 1, 2], [0, 2, 3], [5, 6, 7], [5, 7, 4]]
+    """
+    triangles = np.empty((len(quads), 6), dtype=dtype or quads.dtype)
+    for column, (first, second) in enumerate(zip((0, 1, 2, 0, 2, 3), (1, 2, 3, 1, 3, 0))):
+        triangles[:, column] = np.where(use_second, quads[:, second], quads[:, first])
+    return triangles.reshape(-1, 3)
 
 
 def quad_quality(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
@@ -95,8 +123,8 @@ def quad_quality(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return _split_quality(nodes, quads)[1]
 
 
-def _split_quality(nodes: np.ndarray, quads: np.ndarray,
-                   block: int = 16384) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _split_quality(nodes: np.ndarray, quads: np.ndarray, block: int = 16384,
+                   normals: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Which split of each quad is better, its quality, and the quad's normal.
 
     :func:`_split_quality_of` on ``block`` quads at a time, the blocks on all
@@ -109,18 +137,21 @@ def _split_quality(nodes: np.ndarray, quads: np.ndarray,
     -------
     use_second : ndarray of bool (M,)
     quality : ndarray (M,)
-    normal : ndarray (M, 3)
+    normal : ndarray (M, 3), or None without ``normals``
         As :func:`_split_quality_of`.
     """
     m = len(quads)
     if m <= block:
-        return _split_quality_of(nodes, quads)
+        use_second, quality, normal = _split_quality_of(nodes, quads)
+        return use_second, quality, normal if normals else None
     use_second = np.empty(m, dtype=bool)
     quality = np.empty(m)
-    normal = np.empty((m, 3))
+    normal = np.empty((m, 3)) if normals else None
 
     def fill(part: slice) -> None:
-        use_second[part], quality[part], normal[part] = _split_quality_of(nodes, quads[part])
+        use_second[part], quality[part], block_normal = _split_quality_of(nodes, quads[part])
+        if normals:
+            normal[part] = block_normal
 
     map_blocks(fill, row_blocks(m, block))
     return use_second, quality, normal

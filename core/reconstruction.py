@@ -152,7 +152,7 @@ class Reconstruction:
         the encoding of a ``.msh`` (:func:`core.export.write_mesh`)."""
         from .export import write_mesh
 
-        return write_mesh(path, self.mesh_triangles, self.grid.offset, binary=binary)
+        return write_mesh(path, self.mesh, self.grid.offset, binary=binary, triangles=self.mesh_triangles)
 
     def write_preview(self, path, before_after: bool = True) -> "Path":
         """PNG picture, blocks coloured by height; voxels beside the final mesh."""

@@ -260,3 +260,15 @@ def test_binary_msh_reads_as_the_text_one(two, tmp_path):
     assert np.abs(text[4] - world).max() <= 5.0001e-5
     meshio = pytest.importorskip("meshio")
     assert sum(len(block.data) for block in meshio.read(binary_path).cells) == len(two.mesh_triangles.quads)
+
+
+def test_msh_entities_found_on_the_quads_are_those_of_their_triangles(two, tmp_path):
+    """The entity search runs on the quads (half the faces); the file must be
+    the one the search on the triangles themselves writes."""
+    from core.export import write_mesh
+
+    for binary in (False, True):
+        by_quads = write_mesh(tmp_path / "quads.msh", two.mesh, two.grid.offset, binary=binary,
+                              triangles=two.mesh_triangles)
+        by_triangles = write_mesh(tmp_path / "triangles.msh", two.mesh_triangles, two.grid.offset, binary=binary)
+        assert by_quads.read_bytes() == by_triangles.read_bytes()

@@ -192,3 +192,20 @@ def test_edge_crossings_per_coordinate_match_the_corner_tables_bit_for_bit():
     got = _edges_cross([coordinates(nodes, a[:, k]) for k in range(3)],
                        [coordinates(nodes, b[:, k]) for k in range(3)])
     assert np.array_equal(got, expected) and 0 < expected.sum() < len(a)
+
+
+def test_float32_boxes_hold_their_triangles():
+    """The pair filter's boxes are float32: rounded outwards, every triangle
+    stays inside its box, and the box is no more than a float32 step wider."""
+    from core.intersect import _pair_rows
+
+    rng = np.random.default_rng(7)
+    nodes = rng.uniform(-500.0, 1500.0, (3000, 3))
+    tri = rng.integers(0, len(nodes), (5000, 3))
+    lower, upper = _pair_rows(nodes, tri)
+    corners = nodes[tri]  # (T, 3 corners, 3 axes)
+    low, high = corners.min(axis=1).T, corners.max(axis=1).T
+    assert lower.dtype == np.float32 and upper.dtype == np.float32
+    assert np.all(lower <= low) and np.all(upper >= high)
+    step = np.spacing(np.float32(2048.0))
+    assert np.all(low - lower <= step) and np.all(upper - high <= step)
