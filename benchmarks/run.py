@@ -160,7 +160,9 @@ def run_case(spec: dict) -> dict:
     report["n_ground"], report["n_building"] = int(len(ground)), int(len(building))
 
     lap = time.perf_counter()
-    result = reconstruct_points(ground, building, crs, params, airborne=airborne, warnings=warnings)
+    # As reconstruct_point_cloud runs it: the points read are the run's to move in place.
+    result = reconstruct_points(ground, building, crs, params, airborne=airborne, warnings=warnings,
+                                overwrite_points=airborne)
     pipeline_s = time.perf_counter() - lap
     rss = result.stats.get("peak_rss_mb", {})
     for stage, seconds in result.timings.items():
@@ -185,6 +187,10 @@ def run_case(spec: dict) -> dict:
     report["clusters"] = int(result.stats.get("clusters", 1))
     report["warnings"] = result.warnings
     del result
+    if airborne:  # the run moved them: the world coordinates again, for what follows
+        points = read_point_clouds(spec["paths"], (2,), (6,), spec["crs"])
+        ground, building = points.ground, points.building
+        del points
 
     if spec.get("baselines", True):
         report["baselines"] = run_baselines(spec, ground, building, crs, params, airborne)

@@ -136,7 +136,7 @@ def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: st
                                parse_classes(building_classes), crs, is_cancelled)
     return reconstruct_points(points.ground, points.building, points.crs, params,
                               airborne=True, warnings=list(points.warnings), tiles=tiles,
-                              progress=progress, is_cancelled=is_cancelled)
+                              progress=progress, is_cancelled=is_cancelled, overwrite_points=True)
 
 
 @reusing_freed_memory()
@@ -172,7 +172,8 @@ def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | No
     else:
         ground = base_points(triangles, h, unit=unit)
     return reconstruct_points(ground, building, crs_obj, params, airborne=False, warnings=warnings,
-                              tiles=tiles, progress=progress, is_cancelled=is_cancelled)
+                              tiles=tiles, progress=progress, is_cancelled=is_cancelled,
+                              overwrite_points=True)
 
 
 @reusing_freed_memory()
@@ -182,7 +183,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
                        is_cancelled: CancelCheck | None = None,
                        split: bool = True, tiles: TileOptions | None = None,
                        window: GridWindow | None = None,
-                       ground_level: GroundLevel | None = None) -> Reconstruction:
+                       ground_level: GroundLevel | None = None,
+                       overwrite_points: bool = False) -> Reconstruction:
     """The paper's §2-4 on ground and building points in world coordinates.
 
     Parameters
@@ -210,6 +212,10 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     ground_level : GroundLevel, optional
         Internal (:mod:`core.tiles`): the ground of the window's columns,
         taken from the whole domain's.
+    overwrite_points : bool
+        The run may change ``ground`` and ``building``: they are moved to
+        the grid's frame in place, not copied (a copy of every point, 300 MB
+        on a 1 km² city, would stay beside the caller's all run long).
     """
     report = _reporter(progress, is_cancelled)
     warnings = list(warnings or [])
@@ -250,8 +256,12 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     grid = window.grid(h)
     check_memory(grid.shape, params.voxel_size, params.max_memory, tile_hint=True)
     lower = grid.offset
-    ground = ground - lower
-    building = building - lower
+    if overwrite_points:
+        ground -= lower
+        building -= lower
+    else:
+        ground = ground - lower
+        building = building - lower
     lap("grid")
 
     report(0.2, "Ground level of every column")
@@ -366,7 +376,8 @@ def _reconstruct_clusters(ground, building, ground_cluster, building_cluster, cr
             continue
         parts.append(reconstruct_points(own_ground, building[building_cluster == c], crs, params,
                                         airborne=airborne, progress=part_progress,
-                                        is_cancelled=is_cancelled, split=False, tiles=tiles))
+                                        is_cancelled=is_cancelled, split=False, tiles=tiles,
+                                        overwrite_points=True))
     if not parts:
         raise UrbanvoxError("No cluster of building points has ground points near it.")
     result = merge_clusters(parts)

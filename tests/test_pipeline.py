@@ -193,3 +193,22 @@ def test_progress_is_reported_through_every_stage(district):
     fractions = [f for f, _ in seen]
     assert fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] == 1.0
     assert len({m for _, m in seen}) >= 7
+
+
+def test_overwrite_points_moves_the_input_in_place_and_changes_no_result(district):
+    """reconstruct_point_cloud lets the run move the points it read instead of
+    copying them: the same model, and the caller's arrays are moved only then."""
+    from core.pipeline import reconstruct_points
+    from core.readers.las import read_point_clouds
+
+    points = read_point_clouds([district.laz])
+    params = ReconstructionParams(voxel_size=2.0)
+    ground, building = points.ground.copy(), points.building.copy()
+    kept = reconstruct_points(ground, building, points.crs, params, airborne=True)
+    assert np.array_equal(ground, points.ground) and np.array_equal(building, points.building)
+    moved = reconstruct_points(ground, building, points.crs, params, airborne=True, overwrite_points=True)
+    assert np.array_equal(moved.mesh.nodes, kept.mesh.nodes)
+    assert np.array_equal(moved.mesh.quads, kept.mesh.quads)
+    assert moved.block_rows() == kept.block_rows()
+    assert np.array_equal(ground, points.ground - moved.grid.offset)
+    assert np.array_equal(building, points.building - moved.grid.offset)
