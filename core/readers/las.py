@@ -36,6 +36,7 @@ import pyproj
 
 from ..crs import describe_crs, horizontal_crs, resolve_crs
 from ..errors import Cancelled, UrbanvoxError
+from ..heap import reusing_freed_memory
 
 __all__ = ["LabelledPoints", "parse_classes", "read_point_clouds", "CLASS_NAMES", "CHUNK_POINTS"]
 
@@ -287,6 +288,10 @@ def _read_file(
     return n_read, n_bad, n_withheld
 
 
+# The chunks' temporaries and the joined arrays reuse freed memory (core.heap):
+# with fresh pages for each, reading the 1 km city's 12.5 M points took 2.9 s
+# instead of 2.0 s (decoding 1.3 s).
+@reusing_freed_memory()
 def read_point_clouds(
     paths: Union[PathLike, Sequence[PathLike]],
     ground_classes: Union[str, Sequence[int]] = (2,),
