@@ -391,10 +391,14 @@ def _machine() -> dict:
                             if line.startswith("model name")), "")
     except (OSError, ValueError):
         pass
-    for name in ("open3d", "skimage", "trimesh", "pyinstrument", "laspy", "lazrs"):
+    from importlib import metadata
+
+    # Versions of the installed distributions: lazrs's module has no __version__.
+    for name, distribution in (("open3d", "open3d"), ("skimage", "scikit-image"), ("trimesh", "trimesh"),
+                               ("pyinstrument", "pyinstrument"), ("laspy", "laspy"), ("lazrs", "lazrs")):
         try:
-            info[name] = __import__(name).__version__
-        except Exception:  # noqa: BLE001 - a missing or broken baseline is reported, not fatal
+            info[name] = metadata.version(distribution)
+        except metadata.PackageNotFoundError:
             info[name] = NOT_INSTALLED_TEXT
     try:
         info["commit"] = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
