@@ -24,7 +24,7 @@ from .classify import AIR, BUILDING
 from .errors import Cancelled
 from .grid import VoxelGrid
 from .neighbours import search_tree
-from .parallel import row_blocks
+from .parallel import row_blocks, thread_count
 
 #: Candidates examined per face when the quick ball tests cannot decide.
 _CANDIDATES = 16
@@ -181,7 +181,7 @@ def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: n
     # The nearest point answers both ball tests ("a point within r_inner",
     # "a point within r_outer"): one search that stops at the first point,
     # instead of counting every point in two balls.
-    nearest, _ = tree.query(centre, k=1, distance_upper_bound=r_outer * (1 + 1e-6), workers=-1)
+    nearest, _ = tree.query(centre, k=1, distance_upper_bound=r_outer * (1 + 1e-6), workers=thread_count())
     supported = _within(tree, centre, nearest, r_inner)
     open_ = np.flatnonzero(~supported)
     if len(open_) == 0:
@@ -191,7 +191,7 @@ def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: n
     if len(open_) == 0:
         return supported
     k = min(_CANDIDATES, len(points))
-    _, idx = tree.query(centre[open_], k=k, distance_upper_bound=r_outer, workers=-1)
+    _, idx = tree.query(centre[open_], k=k, distance_upper_bound=r_outer, workers=thread_count())
     idx = idx.reshape(len(open_), k)
     valid = idx < len(points)
     idx = np.where(valid, idx, 0)
@@ -239,7 +239,7 @@ def _supported_from_above(tree: cKDTree, points: np.ndarray, centre: np.ndarray,
     """Whether a point above each wall face lies within ``support * h`` of it horizontally."""
     r_outer = np.sqrt(support**2 + 0.25) * h
     k = min(2 * _CANDIDATES, len(points))
-    _, idx = tree.query(centre[:, :2], k=k, distance_upper_bound=r_outer, workers=-1)
+    _, idx = tree.query(centre[:, :2], k=k, distance_upper_bound=r_outer, workers=thread_count())
     idx = idx.reshape(len(centre), k)
     valid = idx < len(points)
     idx = np.where(valid, idx, 0)

@@ -8,6 +8,10 @@ and answers as fast; distances do not depend on the tree's shape, and the
 one thing that does, the order of points at equal distances, is settled by
 coordinates (:func:`nearest`). Tiles, with trees over other points, then
 find what a single run finds.
+
+A query runs on :func:`core.parallel.thread_count` threads (scipy's
+``workers=-1`` would take every core of the machine in each Dask worker, and
+in each thread of a row-block pool).
 """
 from __future__ import annotations
 
@@ -15,6 +19,8 @@ from typing import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
+
+from .parallel import thread_count
 
 
 def search_tree(points: np.ndarray) -> cKDTree:
@@ -29,7 +35,7 @@ def search_tree(points: np.ndarray) -> cKDTree:
 
 
 def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
-            upper: float = np.inf, spare: int = 8) -> tuple[np.ndarray, np.ndarray]:
+            upper: float = np.inf, spare: int = 8, workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` nearest data points of every point ``at``, ties broken by coordinates.
 
     A KD-tree returns points at equal distances in the order it visits them,
@@ -37,7 +43,9 @@ def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
     then the smallest in (x, y, z). One more neighbour is asked for first;
     where it is as near as the ``k``-th, more points may share that
     distance, and ``spare`` more are asked for. Missing neighbours (beyond
-    ``upper``) have distance ``inf`` and index ``len(data)``.
+    ``upper``) have distance ``inf`` and index ``len(data)``. The search runs
+    on ``workers`` threads (default :func:`core.parallel.thread_count`; 1
+    from a thread of the row-block pool).
 
     Examples
     --------
@@ -47,23 +55,24 @@ def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
     [[-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]]
     """
     k = min(k, len(data))
-    out_dist, out_idx = _nearest_of(tree, data, at, k, min(k + 1, len(data)), upper)
+    workers = workers or thread_count()
+    out_dist, out_idx = _nearest_of(tree, data, at, k, min(k + 1, len(data)), upper, workers)
     if 0 < k < len(data):
         # The (k+1)-th as near as the k-th (both found): the points at that
         # distance may be more than the tree gave.
         tied = np.flatnonzero((out_dist[:, k] == out_dist[:, k - 1]) & (out_dist[:, k] != np.inf))
         out_dist, out_idx = out_dist[:, :k].copy(), out_idx[:, :k].copy()
         if len(tied):
-            dist, idx = _nearest_of(tree, data, at[tied], k, min(k + spare, len(data)), upper)
+            dist, idx = _nearest_of(tree, data, at[tied], k, min(k + spare, len(data)), upper, workers)
             out_dist[tied], out_idx[tied] = dist[:, :k], idx[:, :k]
     return out_dist, out_idx
 
 
 def _nearest_of(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int, m: int,
-                upper: float) -> tuple[np.ndarray, np.ndarray]:
+                upper: float, workers: int) -> tuple[np.ndarray, np.ndarray]:
     """The ``m`` nearest of every point ``at``, the first ``k`` ordered by
     (distance, x, y, z) among them. Returns C-contiguous (Q, m) arrays."""
-    dist, idx = tree.query(at, k=m, distance_upper_bound=upper, workers=-1)
+    dist, idx = tree.query(at, k=m, distance_upper_bound=upper, workers=workers)
     dist = dist.reshape(len(at), m)
     idx = idx.reshape(len(at), m)
     # The tree lists neighbours by increasing distance, the missing ones
@@ -106,15 +115,16 @@ def nearest_distance(points: np.ndarray, trees: Sequence[cKDTree], bound: float)
     [1.0, 1.0]
     """
     distance = np.full(len(points), np.inf)
+    workers = thread_count()
     searched = False
     for tree in trees:
         if tree.n == 0 or len(points) == 0:
             continue
         if not searched:
-            distance = tree.query(points, k=1, workers=-1)[0]
+            distance = tree.query(points, k=1, workers=workers)[0]
             searched = True
             continue
-        found = tree.query(points, k=1, distance_upper_bound=bound, workers=-1)[0]
+        found = tree.query(points, k=1, distance_upper_bound=bound, workers=workers)[0]
         # Nothing within bound, and nothing that near so far: searched again
         # within bounds four times wider each time, each point as far as its
         # distance so far (a farther point would not be the nearest). Points
@@ -127,7 +137,7 @@ def nearest_distance(points: np.ndarray, trees: Sequence[cKDTree], bound: float)
             now = distance[pending] <= limit
             if now.any():
                 found[pending[now]] = tree.query(points[pending[now]], k=1, distance_upper_bound=limit,
-                                                 workers=-1)[0]
+                                                 workers=workers)[0]
             pending = pending[~now]
         np.minimum(distance, found, out=distance)
     distance[np.isinf(distance)] = np.nan

@@ -118,7 +118,7 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     def fit(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         # The neighbours of a block of rows only: tables of all of them took
         # hundreds of MB on a city.
-        dist, idx = nearest(tree, data, at[rows], k)
+        dist, idx = nearest(tree, data, at[rows], k, workers=1)  # this block's thread
         x = data[idx]
         w = np.exp(-(dist / sigma) ** 2)
         w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)

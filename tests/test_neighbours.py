@@ -48,3 +48,32 @@ def test_nearest_distance_over_several_trees_matches_brute_force_over_their_unio
             trees = [search_tree(data[:split]), search_tree(data[split:])]
             np.testing.assert_array_equal(nearest_distance(points, trees, bound), want)
     assert np.isnan(nearest_distance(points, [search_tree(data[:0])], 1.0)).all()
+
+
+class _CountingTree(cKDTree):
+    """A KD-tree that records the ``workers`` of its queries."""
+
+    def query(self, *args, **kwargs):
+        self.workers.append(kwargs.get("workers", 1))
+        return super().query(*args, **kwargs)
+
+
+def test_queries_take_the_threads_they_are_given(monkeypatch):
+    """A Dask worker's share of the cores (URBANVOX_THREADS), not every core;
+    one thread inside the row-block pool (the MLS planes)."""
+    from core.project import mls_planes
+
+    data = np.random.default_rng(3).uniform(0, 10, (5000, 3))
+    tree = _CountingTree(data)
+    tree.workers = []
+    monkeypatch.setenv("URBANVOX_THREADS", "1")
+    nearest(tree, data, data[:100], 5)
+    nearest_distance(data[:100] + 0.1, [tree], 1.0)
+    assert tree.workers and set(tree.workers) == {1}
+    monkeypatch.setenv("URBANVOX_THREADS", "3")
+    tree.workers = []
+    nearest(tree, data, data[:100], 5)
+    assert set(tree.workers) == {3}
+    tree.workers = []
+    mls_planes(data, tree, data[:40000], 0.5)  # several blocks, on the pool's threads
+    assert set(tree.workers) == {1}
