@@ -203,12 +203,19 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
     positive = np.where(regions > 0, regions, 0)
     block_face = (regions > 0).any(axis=1)
     keep_block = renumber[positive].any(axis=1)
-    centre = keys[surface.quads].mean(axis=1)
-    in_core = ((centre[:, 0] >= ci0) & ((centre[:, 0] < ci1) | (ci1 == nx))
-               & (centre[:, 1] >= cj0) & ((centre[:, 1] < cj1) | (cj1 == ny)))
+    # The face's centre in lattice units, times 4: the sum of its corners
+    # (exact integers, so the tests are those on the mean).
+    centre = [keys[:, c][surface.quads].sum(axis=1) for c in range(2)]
+    in_core = ((centre[0] >= 4 * ci0) & ((centre[0] < 4 * ci1) | (ci1 == nx))
+               & (centre[1] >= 4 * cj0) & ((centre[1] < 4 * cj1) | (cj1 == ny)))
     keep = keep_block | (~block_face & in_core)
     quads = surface.quads[keep]
-    used, inverse = np.unique(quads, return_inverse=True)
+    # The nodes used, ascending, and the quads renumbered to them: as
+    # np.unique(quads, return_inverse=True) gives them, without its sort.
+    used_mask = np.zeros(len(surface.nodes), dtype=bool)
+    used_mask[quads.ravel()] = True
+    used = np.flatnonzero(used_mask)
+    inverse = (np.cumsum(used_mask) - 1)[quads]
     new_regions = np.where(regions[keep] > 0, renumber[positive[keep]], regions[keep])
     priority = np.zeros(len(surface.nodes), dtype=bool)
     priority[surface.quads[keep_block].ravel()] = True
@@ -253,14 +260,13 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     global_id = np.empty(len(order), dtype=np.int32)
     global_id[order] = np.arange(1, len(order) + 1, dtype=np.int32)
 
-    keys, moved, first_rank, quads, regions, columns = [], [], [], [], [], []
+    keys, moved, first_rank, regions, columns = [], [], [], [], []
     n_nodes = n_blocks = 0
     for rank, p in enumerate(pieces):
         renumber = np.concatenate([[0], global_id[n_blocks:n_blocks + len(p.blocks)]]).astype(np.int32)
         r = p.regions.copy()
         r[r > 0] = renumber[r[r > 0]]
         regions.append(r)
-        quads.append(p.quads.astype(np.int64) + n_nodes)
         keys.append(p.keys)
         moved.append(p.moved)
         # Nodes of owned blocks first, then by tile: a block's nodes come from its tile.
@@ -274,7 +280,12 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     rank = np.concatenate(first_rank)
     nx1, ny1 = domain.shape[0] + 1, domain.shape[1] + 1
     flat = keys[:, 0].astype(np.int64) + nx1 * (keys[:, 1] + ny1 * keys[:, 2].astype(np.int64))
-    by_rank = np.lexsort((rank, flat))
+    # Sorted by node, then rank: one sort of a combined key (unique, a node
+    # has one copy per tile), not numpy's two-pass lexsort.
+    if int(flat.max()) < np.iinfo(np.int64).max // (2 * len(pieces)):
+        by_rank = np.argsort(flat * (2 * len(pieces)) + rank)
+    else:  # pragma: no cover - lattices of more than 4e18 / tiles nodes
+        by_rank = np.lexsort((rank, flat))
     flat = flat[by_rank]
     first = np.concatenate([[True], flat[1:] != flat[:-1]])  # a node's best-ranked copy
     del flat
@@ -284,7 +295,14 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     del by_rank, first
     nodes = keys[chosen].astype(np.float64) * h
     final = np.concatenate(moved)[chosen]
-    all_quads = node_of[np.concatenate(quads)]
+    # Each piece's quads through its own stretch of node_of: no int64 copy of
+    # them all to concatenate first.
+    all_quads = np.empty((sum(len(p.quads) for p in pieces), 4), dtype=np.int64)
+    start = stop = 0
+    for p in pieces:
+        rows = slice(stop, stop + len(p.quads))
+        all_quads[rows] = node_of[start:start + len(p.keys)][p.quads]
+        start, stop = start + len(p.keys), rows.stop
     del node_of
     all_regions = np.concatenate(regions)
     surface = SurfaceModel(nodes, all_quads, all_regions)
