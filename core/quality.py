@@ -120,7 +120,7 @@ def split_along(quads: np.ndarray, use_second: np.ndarray, dtype: type | None = 
 
 def quad_quality(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
     """Quality of every quad under its best split."""
-    return _split_quality(nodes, quads)[1]
+    return _split_quality(nodes, quads, normals=False)[1]
 
 
 def _split_quality(nodes: np.ndarray, quads: np.ndarray, block: int = 16384,

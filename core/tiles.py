@@ -261,7 +261,7 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     global_id[order] = np.arange(1, len(order) + 1, dtype=np.int32)
 
     keys, moved, first_rank, regions, columns = [], [], [], [], []
-    n_nodes = n_blocks = 0
+    n_blocks = 0
     for rank, p in enumerate(pieces):
         renumber = np.concatenate([[0], global_id[n_blocks:n_blocks + len(p.blocks)]]).astype(np.int32)
         r = p.regions.copy()
@@ -274,7 +274,6 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
         c = p.footprint_columns.copy()
         c[:, 0] = renumber[c[:, 0]]
         columns.append(c)
-        n_nodes += len(p.keys)
         n_blocks += len(p.blocks)
     keys = np.concatenate(keys)
     rank = np.concatenate(first_rank)
