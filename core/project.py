@@ -39,8 +39,8 @@ from .vectors import cross, dot, length
 _NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
 #: Planes fitted per block of rows (temporaries of a few MB).
 _FIT_ROWS = 16384
-#: Nodes whose candidate points are searched at a time.
-_QUERY_ROWS = 1 << 17
+#: Nodes whose candidate points are searched at a time, and ranked at a time.
+_QUERY_ROWS, _LINE_ROWS = 1 << 17, 4096
 
 
 def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
@@ -313,10 +313,18 @@ def _candidates(tree: cKDTree, data: np.ndarray, p: np.ndarray, normal: np.ndarr
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         near = nearest(tree, data, p[rows], _NEAR, radius)[1]
-        off_line = _distance_to_line(data, near, p[rows], normal[rows])
-        ranked = _ranked(off_line, near, data, tries)
-        # A missing neighbour is infinitely far from the line, and its index is len(data).
-        candidates[rows] = np.take_along_axis(near, ranked, axis=1)
+        out = candidates[rows]
+        start = rows.start
+
+        def rank(part: slice, near: np.ndarray = near, out: np.ndarray = out, start: int = start) -> None:
+            # Each node's points from its own row: blocks of rows on all
+            # cores, their tables in the cache.
+            where = slice(start + part.start, start + part.stop)
+            off_line = _distance_to_line(data, near[part], p[where], normal[where], rows=part.stop - part.start)
+            # A missing neighbour is infinitely far from the line, and its index is len(data).
+            out[part] = np.take_along_axis(near[part], _ranked(off_line, near[part], data, tries), axis=1)
+
+        map_blocks(rank, row_blocks(len(near), _LINE_ROWS))
     return candidates
 
 
