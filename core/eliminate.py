@@ -24,12 +24,12 @@ from .classify import AIR, BUILDING
 from .errors import Cancelled
 from .grid import VoxelGrid
 from .neighbours import search_tree
-from .parallel import row_blocks, thread_count
+from .parallel import map_blocks, row_blocks, thread_count
 
 #: Candidates examined per face when the quick ball tests cannot decide.
 _CANDIDATES = 16
-#: Faces tested at a time.
-_FACES = 1 << 17
+#: Faces tested at a time; rows of their candidate tables per block on a core.
+_FACES, _ROWS = 1 << 17, 4096
 
 
 def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
@@ -193,20 +193,26 @@ def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: n
     k = min(_CANDIDATES, len(points))
     _, idx = tree.query(centre[open_], k=k, distance_upper_bound=r_outer, workers=thread_count())
     idx = idx.reshape(len(open_), k)
-    valid = idx < len(points)
-    idx = np.where(valid, idx, 0)
-    # One (F, k) array per coordinate: no ufunc loops three elements long.
-    # Across the face the normal distance counts, along it only what lies
-    # beyond the face's edge (the sums run x, y, z as before).
-    face_axis = axis[open_, None]
-    dist2 = 0.0
-    for c in range(3):
-        gap = np.abs(points[:, c][idx] - centre[open_, c, None])
-        excess = np.where(face_axis == c, 0.0, np.maximum(gap - 0.5 * h, 0.0))
-        dist2 = dist2 + excess**2
-        normal = gap if c == 0 else np.where(face_axis == c, gap, normal)
-    dist2 = normal**2 + dist2
-    supported[open_] = (valid & (dist2 <= r_inner**2)).any(axis=1)
+
+    def test(rows: slice) -> np.ndarray:
+        # One (F, k) array per coordinate: no ufunc loops three elements long.
+        # Across the face the normal distance counts, along it only what lies
+        # beyond the face's edge (the sums run x, y, z as before).
+        near, faces = idx[rows], open_[rows]
+        valid = near < len(points)
+        near = np.where(valid, near, 0)
+        face_axis = axis[faces, None]
+        dist2 = 0.0
+        for c in range(3):
+            gap = np.abs(points[:, c][near] - centre[faces, c, None])
+            excess = np.where(face_axis == c, 0.0, np.maximum(gap - 0.5 * h, 0.0))
+            dist2 = dist2 + excess**2
+            normal = gap if c == 0 else np.where(face_axis == c, gap, normal)
+        dist2 = normal**2 + dist2
+        return (valid & (dist2 <= r_inner**2)).any(axis=1)
+
+    # Each face from its own row: blocks of rows on all cores.
+    supported[open_] = np.concatenate(map_blocks(test, row_blocks(len(open_), _ROWS)))
     return supported
 
 
@@ -241,12 +247,17 @@ def _supported_from_above(tree: cKDTree, points: np.ndarray, centre: np.ndarray,
     k = min(2 * _CANDIDATES, len(points))
     _, idx = tree.query(centre[:, :2], k=k, distance_upper_bound=r_outer, workers=thread_count())
     idx = idx.reshape(len(centre), k)
-    valid = idx < len(points)
-    idx = np.where(valid, idx, 0)
-    # One (F, k) array per coordinate (see _supported_3d).
-    dx = np.abs(points[:, 0][idx] - centre[:, 0, None])
-    dy = np.abs(points[:, 1][idx] - centre[:, 1, None])
-    across = np.where(axis[:, None] == 0, dx, dy)
-    along = np.maximum(np.where(axis[:, None] == 0, dy, dx) - 0.5 * h, 0.0)
-    above = points[:, 2][idx] >= centre[:, None, 2] - 0.5 * h
-    return (valid & above & (across**2 + along**2 <= (support * h) ** 2)).any(axis=1)
+
+    def test(rows: slice) -> np.ndarray:
+        # One (F, k) array per coordinate (see _supported_3d).
+        near, at, face_axis = idx[rows], centre[rows], axis[rows, None]
+        valid = near < len(points)
+        near = np.where(valid, near, 0)
+        dx = np.abs(points[:, 0][near] - at[:, 0, None])
+        dy = np.abs(points[:, 1][near] - at[:, 1, None])
+        across = np.where(face_axis == 0, dx, dy)
+        along = np.maximum(np.where(face_axis == 0, dy, dx) - 0.5 * h, 0.0)
+        above = points[:, 2][near] >= at[:, None, 2] - 0.5 * h
+        return (valid & above & (across**2 + along**2 <= (support * h) ** 2)).any(axis=1)
+
+    return np.concatenate(map_blocks(test, row_blocks(len(centre), _ROWS)) or [np.zeros(0, dtype=bool)])
