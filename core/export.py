@@ -248,12 +248,15 @@ def _msh_topology(model: SurfaceModel, world: np.ndarray, triangles: SurfaceMode
     item_patch = np.tile(np.arange(n_patches), 2)
     real = np.flatnonzero(item_rank >= 0)
     items = real[np.lexsort((first_face[item_patch[real]], item_rank[real]))]
-    item_of = np.full(2 * n_patches, -1, dtype=np.int64)
+    # The links (two per pair) in the 32-bit index type where it fits: a
+    # table of them per field, 2 x 5 M on the 1 km city.
+    item_of = np.full(2 * n_patches, -1, dtype=index)
     item_of[items] = np.arange(len(items))
-    pair_interface, pair_node = pair // n_nodes, pair % n_nodes
-    link_side = np.concatenate([np.zeros(len(pair), np.int64), np.ones(len(pair), np.int64)])
-    link_rank = side_rank[np.tile(pair_interface, 2), link_side]
-    link_item = item_of[link_side * n_patches + np.tile(pair_patch, 2)]
+    pair_interface, pair_node = (pair // n_nodes).astype(index), (pair % n_nodes).astype(index)
+    link_side = np.repeat(np.array([0, 1], dtype=np.int8), len(pair))
+    link_rank = side_rank.astype(index)[np.tile(pair_interface, 2), link_side]
+    link_item = item_of[np.repeat(np.array([0, n_patches], dtype=index), len(pair)) + np.tile(pair_patch, 2)]
+    del link_side
     on_region = link_rank >= 0
     shell, _, _ = _linked_parts(link_item[on_region], link_rank[on_region],
                                 np.tile(pair_node, 2)[on_region], len(items), n_nodes)
