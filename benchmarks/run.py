@@ -160,7 +160,8 @@ def run_case(spec: dict) -> dict:
     report["n_ground"], report["n_building"] = int(len(ground)), int(len(building))
 
     lap = time.perf_counter()
-    # As reconstruct_point_cloud runs it: the points read are the run's to move in place.
+    # As reconstruct_point_cloud runs it: the points read are the run's to move in place
+    # (the mesh case keeps its sampled points for the baselines: a copy more than reconstruct_mesh).
     result = reconstruct_points(ground, building, crs, params, airborne=airborne, warnings=warnings,
                                 overwrite_points=airborne)
     pipeline_s = time.perf_counter() - lap

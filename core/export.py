@@ -248,14 +248,16 @@ def _msh_topology(model: SurfaceModel, world: np.ndarray, triangles: SurfaceMode
     item_patch = np.tile(np.arange(n_patches), 2)
     real = np.flatnonzero(item_rank >= 0)
     items = real[np.lexsort((first_face[item_patch[real]], item_rank[real]))]
-    # The links (two per pair) in the 32-bit index type where it fits: a
-    # table of them per field, 2 x 5 M on the 1 km city.
-    item_of = np.full(2 * n_patches, -1, dtype=index)
+    # The links (two per pair) in 32 bits where their values fit (items up
+    # to 2 x patches): a table of them per field, 2 x 5 M on the 1 km city.
+    link = np.int32 if max(2 * n_patches, n_nodes, len(interfaces)) < 2**31 else np.int64
+    item_of = np.full(2 * n_patches, -1, dtype=link)
     item_of[items] = np.arange(len(items))
-    pair_interface, pair_node = (pair // n_nodes).astype(index), (pair % n_nodes).astype(index)
+    pair_interface, pair_node = (pair // n_nodes).astype(link), (pair % n_nodes).astype(link)
     link_side = np.repeat(np.array([0, 1], dtype=np.int8), len(pair))
-    link_rank = side_rank.astype(index)[np.tile(pair_interface, 2), link_side]
-    link_item = item_of[np.repeat(np.array([0, n_patches], dtype=index), len(pair)) + np.tile(pair_patch, 2)]
+    link_rank = side_rank.astype(link)[np.tile(pair_interface, 2), link_side]
+    link_item = item_of[np.repeat(np.array([0, n_patches], dtype=link), len(pair))
+                        + np.tile(pair_patch.astype(link), 2)]
     del link_side
     on_region = link_rank >= 0
     shell, _, _ = _linked_parts(link_item[on_region], link_rank[on_region],

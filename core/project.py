@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 from .errors import Cancelled
 from .intersect import undo_crossings
 from .neighbours import by_value_then_coordinates, nearest, search_tree
-from .parallel import map_blocks, row_blocks
+from .parallel import map_blocks, row_blocks, thread_count
 from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
@@ -115,10 +115,15 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
     flat : ndarray of bool (Q,)
         The neighbourhood spans a plane (not a line or a point).
     """
+    blocks = row_blocks(len(at), _FIT_ROWS)
+    # One thread per query where the blocks run on the pool's threads; all of
+    # them where a single block runs here.
+    workers = 1 if len(blocks) > 1 and thread_count() > 1 else None
+
     def fit(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         # The neighbours of a block of rows only: tables of all of them took
         # hundreds of MB on a city.
-        dist, idx = nearest(tree, data, at[rows], k, workers=1)  # this block's thread
+        dist, idx = nearest(tree, data, at[rows], k, workers=workers)
         x = data[idx]
         w = np.exp(-(dist / sigma) ** 2)
         w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
@@ -130,7 +135,7 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
 
     # Each plane is fitted from its own rows: blocks of rows run on all cores
     # (the KD-tree searches release the GIL).
-    parts = map_blocks(fit, row_blocks(len(at), _FIT_ROWS)) or [fit(slice(0, 0))]
+    parts = map_blocks(fit, blocks) or [fit(slice(0, 0))]
     return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))
 
 
@@ -320,6 +325,8 @@ def _candidates(tree: cKDTree, data: np.ndarray, p: np.ndarray, normal: np.ndarr
             # Each node's points from its own row: blocks of rows on all
             # cores, their tables in the cache.
             where = slice(start + part.start, start + part.stop)
+            # One block for _distance_to_line: it runs here, in this pool
+            # thread (more would wait on the pool from inside it).
             off_line = _distance_to_line(data, near[part], p[where], normal[where], rows=part.stop - part.start)
             # A missing neighbour is infinitely far from the line, and its index is len(data).
             out[part] = np.take_along_axis(near[part], _ranked(off_line, near[part], data, tries), axis=1)

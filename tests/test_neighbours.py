@@ -60,7 +60,8 @@ class _CountingTree(cKDTree):
 
 def test_queries_take_the_threads_they_are_given(monkeypatch):
     """A Dask worker's share of the cores (URBANVOX_THREADS), not every core;
-    one thread inside the row-block pool (the MLS planes)."""
+    one thread inside the row-block pool (the MLS planes), all of them when a
+    single block runs outside it."""
     from core.project import mls_planes
 
     data = np.random.default_rng(3).uniform(0, 10, (5000, 3))
@@ -75,5 +76,8 @@ def test_queries_take_the_threads_they_are_given(monkeypatch):
     nearest(tree, data, data[:100], 5)
     assert set(tree.workers) == {3}
     tree.workers = []
-    mls_planes(data, tree, data[:40000], 0.5)  # several blocks, on the pool's threads
+    mls_planes(data, tree, np.tile(data, (8, 1)), 0.5)  # 40,000 planes: several blocks, on the pool's threads
     assert set(tree.workers) == {1}
+    tree.workers = []
+    mls_planes(data, tree, data[:100], 0.5)  # one block, run here
+    assert set(tree.workers) == {3}
