@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
-from typing import Callable, Iterable, TypeVar
+from typing import Callable, Iterable, Sequence, TypeVar
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -46,10 +46,22 @@ def map_blocks(func: Callable[[T], R], blocks: Iterable[T]) -> list[R]:
     [49.0, 64.0, 81.0]
     """
     blocks = list(blocks)
-    threads = thread_count()
-    if threads == 1 or len(blocks) < 2:
+    if not on_pool(blocks):
         return [func(block) for block in blocks]
-    return list(_executor(threads).map(func, blocks))
+    return list(_executor(thread_count()).map(func, blocks))
+
+
+def on_pool(blocks: Sequence) -> bool:
+    """Whether :func:`map_blocks` runs ``blocks`` on the pool's threads (else
+    here, one after the other): work inside them that has threads of its own
+    (a KD-tree query) then takes one.
+
+    Examples
+    --------
+    >>> on_pool(row_blocks(10, 10))
+    False
+    """
+    return thread_count() > 1 and len(blocks) > 1
 
 
 def row_blocks(n: int, size: int) -> list[slice]:

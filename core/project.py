@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 from .errors import Cancelled
 from .intersect import undo_crossings
 from .neighbours import by_value_then_coordinates, nearest, search_tree
-from .parallel import map_blocks, row_blocks, thread_count
+from .parallel import map_blocks, on_pool, row_blocks
 from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
@@ -116,9 +116,8 @@ def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
         The neighbourhood spans a plane (not a line or a point).
     """
     blocks = row_blocks(len(at), _FIT_ROWS)
-    # One thread per query where the blocks run on the pool's threads; all of
-    # them where a single block runs here.
-    workers = 1 if len(blocks) > 1 and thread_count() > 1 else None
+    # One thread per query where the blocks run on the pool's threads.
+    workers = 1 if on_pool(blocks) else None
 
     def fit(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         # The neighbours of a block of rows only: tables of all of them took
@@ -325,9 +324,7 @@ def _candidates(tree: cKDTree, data: np.ndarray, p: np.ndarray, normal: np.ndarr
             # Each node's points from its own row: blocks of rows on all
             # cores, their tables in the cache.
             where = slice(start + part.start, start + part.stop)
-            # One block for _distance_to_line: it runs here, in this pool
-            # thread (more would wait on the pool from inside it).
-            off_line = _distance_to_line(data, near[part], p[where], normal[where], rows=part.stop - part.start)
+            off_line = _distance_to_line(data, near[part], p[where], normal[where])
             # A missing neighbour is infinitely far from the line, and its index is len(data).
             out[part] = np.take_along_axis(near[part], _ranked(off_line, near[part], data, tries), axis=1)
 
@@ -378,23 +375,18 @@ def _ranked(off_line: np.ndarray, near: np.ndarray, data: np.ndarray, tries: int
     return ranked
 
 
-def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray,
-                      rows: int = 4096) -> np.ndarray:
+def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray) -> np.ndarray:
     """Distance of the data points ``near`` (Q, K) to the line through each
     node ``p`` along its ``normal`` (Q, 3); ``inf`` for missing neighbours
     (index ``len(data)``).
 
-    The table is done ``rows`` nodes at a time: the temporaries of a block
-    stay in the cache instead of streaming tables of millions through
-    memory (and faulting fresh pages in), and each neighbour's row of
-    ``data`` is read once for its three coordinates. The arithmetic is
-    elementwise, so the blocks (run on all cores, :mod:`core.parallel`) give
-    the numbers of one pass; it is that of
-    ``offset = data[near] - p``, ``along = np.einsum("qkc,qc->qk", offset,
-    normal)`` and ``np.linalg.norm(offset - along * normal)``, one (Q, K)
-    array per coordinate with :mod:`core.vectors` (operations on (Q, K, 3)
-    arrays broadcast along an axis of three run ufunc loops three elements
-    long).
+    The arithmetic of ``offset = data[near] - p``, ``along =
+    np.einsum("qkc,qc->qk", offset, normal)`` and
+    ``np.linalg.norm(offset - along * normal)``, one (Q, K) array per
+    coordinate with :mod:`core.vectors` (operations on (Q, K, 3) arrays
+    broadcast along an axis of three run ufunc loops three elements long).
+    It is elementwise: :func:`_candidates` calls it on blocks of a few
+    thousand rows, whose temporaries stay in the cache.
 
     Examples
     --------
@@ -402,18 +394,11 @@ def _distance_to_line(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal:
     >>> _distance_to_line(data, np.array([[0, 1, 2]]), np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
     array([[ 5.,  0., inf]])
     """
-    out = np.empty(near.shape)
-
-    def fill(block: slice) -> None:
-        found = near[block] < len(data)
-        x = data[np.where(found, near[block], 0)]
-        q, n = p[block], normal[block]
-        offset = [x[..., c] - q[:, c, None] for c in range(3)]
-        direction = [n[:, c, None] for c in range(3)]
-        along = dot(offset, direction)
-        distance = length([offset[c] - along * direction[c] for c in range(3)])
-        distance[~found] = np.inf
-        out[block] = distance
-
-    map_blocks(fill, row_blocks(len(near), rows))
-    return out
+    found = near < len(data)
+    x = data[np.where(found, near, 0)]
+    offset = [x[..., c] - p[:, c, None] for c in range(3)]
+    direction = [normal[:, c, None] for c in range(3)]
+    along = dot(offset, direction)
+    distance = length([offset[c] - along * direction[c] for c in range(3)])
+    distance[~found] = np.inf
+    return distance

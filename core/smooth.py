@@ -29,7 +29,7 @@ from scipy import sparse
 
 from .errors import Cancelled
 from .quality import FaceState, accept_moves
-from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel
+from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel, unique_nodes
 from .topology import changed_rows
 
 
@@ -114,12 +114,9 @@ class CatmullClarkStep:
     """
 
     def __init__(self, quads: np.ndarray, n: int):
-        on_surface = np.zeros(n, dtype=bool)
-        on_surface[quads.ravel()] = True
         #: The surface's nodes (sorted), the rows of a step's result.
-        self.nodes = np.flatnonzero(on_surface)
-        local = np.cumsum(on_surface) - 1  # a node's row among self.nodes
-        faces = local[quads]
+        self.nodes, faces = unique_nodes(quads, n)
+        faces = faces.reshape(quads.shape)  # numbered by their row among self.nodes
         size = len(self.nodes)
         m = len(faces)
         # Each undirected edge once.

@@ -104,7 +104,7 @@ class SurfaceModel:
         del padded, back, front
         flat = np.concatenate(quads)
         del quads
-        used, inverse = _unique_nodes(flat, nx1 * ny1 * (regions.shape[2] + 1))
+        used, inverse = unique_nodes(flat, nx1 * ny1 * (regions.shape[2] + 1))
         ijk = np.column_stack([used % nx1, (used // nx1) % ny1, used // (nx1 * ny1)])
         return cls(nodes=grid.node_xyz(ijk),
                    quads=inverse.reshape(-1, 4).astype(np.int64),
@@ -246,20 +246,26 @@ def unique_pairs(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([keys // span, keys % span]) + low, which.ravel()
 
 
-def _unique_nodes(flat: np.ndarray, n_lattice: int) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(flat, return_inverse=True)`` for lattice node numbers below
-    ``n_lattice`` (``flat`` of any shape: the caller reshapes the inverse).
+def unique_nodes(flat: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(flat, return_inverse=True)`` for node numbers below
+    ``size`` (``flat`` of any shape: the caller reshapes the inverse).
 
-    A mark per lattice node and a running count give the same sorted nodes
-    and ranks in linear time. They cost 5 bytes per lattice node (about the
-    region volume's 4 per voxel): on a lattice much larger than the number
-    of corners, or a huge one, the sort is kept.
+    A mark per node and a running count give the same sorted nodes and
+    ranks in linear time. They cost 5 bytes per node of the numbering (about
+    the region volume's 4 per voxel): where it is much larger than the
+    number of corners, or huge, the sort is kept.
+
+    Examples
+    --------
+    >>> used, inverse = unique_nodes(np.array([[7, 2], [2, 9]]), 10)
+    >>> used.tolist(), inverse.reshape(2, 2).tolist()
+    ([2, 7, 9], [[1, 0], [0, 2]])
     """
-    if n_lattice > min(16 * flat.size, 400_000_000):
+    if size > min(16 * flat.size, 400_000_000):
         return np.unique(flat, return_inverse=True)
-    used = np.zeros(n_lattice, dtype=bool)
+    used = np.zeros(size, dtype=bool)
     used[flat] = True
     nodes = np.flatnonzero(used)
-    rank = np.zeros(n_lattice, dtype=np.int64 if len(nodes) > np.iinfo(np.int32).max else np.int32)
+    rank = np.zeros(size, dtype=np.int64 if len(nodes) > np.iinfo(np.int32).max else np.int32)
     rank[nodes] = np.arange(len(nodes))
     return nodes, rank[flat]

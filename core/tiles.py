@@ -46,7 +46,7 @@ from .grid import GridWindow, available_memory
 from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
 from .measure import BlockMeasures
-from .surface import SurfaceModel
+from .surface import SurfaceModel, unique_nodes
 from .workers import TileRunner
 
 Columns = tuple[int, int, int, int]  # i0, j0, i1, j1 (half-open), global columns
@@ -210,12 +210,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
                & (centre[1] >= 4 * cj0) & ((centre[1] < 4 * cj1) | (cj1 == ny)))
     keep = keep_block | (~block_face & in_core)
     quads = surface.quads[keep]
-    # The nodes used, ascending, and the quads renumbered to them: as
-    # np.unique(quads, return_inverse=True) gives them, without its sort.
-    used_mask = np.zeros(len(surface.nodes), dtype=bool)
-    used_mask[quads.ravel()] = True
-    used = np.flatnonzero(used_mask)
-    inverse = (np.cumsum(used_mask) - 1)[quads]
+    used, inverse = unique_nodes(quads, len(surface.nodes))
     new_regions = np.where(regions[keep] > 0, renumber[positive[keep]], regions[keep])
     priority = np.zeros(len(surface.nodes), dtype=bool)
     priority[surface.quads[keep_block].ravel()] = True
