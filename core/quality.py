@@ -257,15 +257,17 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
     """
     moving = changed_rows(new, old)
     faces = np.flatnonzero(touching(moving, quads))
-    sub = quads[faces]
+    # take: numpy's row gather, several times faster on (M, 4) and (M, 3)
+    # tables than indexing with an array (numpy 1.24).
+    sub = quads.take(faces, axis=0)
     if state is None:
         _, q_old, n_old = _split_quality(old, sub)
     else:
         missing = faces[~state.known[faces]]
         if len(missing):
-            _, state.quality[missing], state.normal[missing] = _split_quality(old, quads[missing])
+            _, state.quality[missing], state.normal[missing] = _split_quality(old, quads.take(missing, axis=0))
             state.known[missing] = True
-        q_old, n_old = state.quality[faces], state.normal[faces]
+        q_old, n_old = state.quality[faces], state.normal.take(faces, axis=0)
     floor = np.minimum(q_old, threshold)
     positions = new.copy()
     # The faces at the current positions, for the state: a face is computed
@@ -277,16 +279,16 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
             raise Cancelled()
         if len(check) == 0:
             break
-        _, q, normal = _split_quality(positions, sub[check])
+        _, q, normal = _split_quality(positions, sub.take(check, axis=0))
         q_now[check], n_now[check] = q, normal
-        turned = np.einsum("ij,ij->i", normal, n_old[check]) <= 0
+        turned = np.einsum("ij,ij->i", normal, n_old.take(check, axis=0)) <= 0
         bad = check[(q < floor[check] - 1e-12) | turned]
         if len(bad) == 0:
             check = check[:0]
             break
-        undo = np.unique(sub[bad])
+        undo = np.unique(sub.take(bad, axis=0))
         undo = undo[moving[undo]]
-        positions[undo] = old[undo]
+        positions[undo] = old.take(undo, axis=0)
         moving[undo] = False
         reverted = np.zeros(len(old), dtype=bool)
         reverted[undo] = True

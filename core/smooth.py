@@ -63,10 +63,12 @@ class NodeRoles:
         ground_face = (a == GROUND_REGION) | (b == GROUND_REGION)
         ground_air = ((a == GROUND_REGION) & (b == AIR_REGION)) | ((a == AIR_REGION) & (b == GROUND_REGION))
         inner_face = (a != OUTSIDE_REGION) & (b != OUTSIDE_REGION)
-        on_block = _nodes_of(model.quads[block_face], n)
-        on_ground = _nodes_of(model.quads[ground_face], n)
-        foot = on_block & _nodes_of(model.quads[ground_air], n)
-        inside = _nodes_of(model.quads[inner_face], n)
+        # compress: numpy's row selection, several times faster on (M, 4)
+        # tables than indexing with a mask (numpy 1.24).
+        on_block = _nodes_of(model.quads.compress(block_face, axis=0), n)
+        on_ground = _nodes_of(model.quads.compress(ground_face, axis=0), n)
+        foot = on_block & _nodes_of(model.quads.compress(ground_air, axis=0), n)
+        inside = _nodes_of(model.quads.compress(inner_face, axis=0), n)
         tol = 1e-9 * max(1.0, float(np.abs(box_upper - box_lower).max()))
         fixed_axes = (np.abs(model.nodes - box_lower) < tol) | (np.abs(model.nodes - box_upper) < tol)
         fixed_axes[:, 2] |= foot
@@ -140,7 +142,7 @@ class CatmullClarkStep:
 
     def __call__(self, positions: np.ndarray) -> np.ndarray:
         """New positions (len(self.nodes), 3) of the surface's nodes, from all ``positions`` (N, 3)."""
-        p = positions[self.nodes]
+        p = positions.take(self.nodes, axis=0)  # several times faster than positions[self.nodes]
         face_sum = self._faces @ (self._faces.T @ p)
         edge_sum = self._edges @ (self._edges.T @ p)
         return self._face_weight * face_sum + self._edge_weight * edge_sum + self._own_weight * p
@@ -167,8 +169,8 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     """
     a, b = model.regions[:, 0], model.regions[:, 1]
     n = len(model.nodes)
-    blocks = CatmullClarkStep(model.quads[(a > 0) | (b > 0)], n)
-    ground = CatmullClarkStep(model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)], n)
+    blocks = CatmullClarkStep(model.quads.compress((a > 0) | (b > 0), axis=0), n)
+    ground = CatmullClarkStep(model.quads.compress((a == GROUND_REGION) | (b == GROUND_REGION), axis=0), n)
     # Each node follows one surface: its block's, else the ground's.
     from_blocks = roles.on_block[blocks.nodes]
     from_ground = ~roles.on_block[ground.nodes]
@@ -180,8 +182,8 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         target = nodes.copy()
-        target[blocks.nodes[from_blocks]] = blocks(nodes)[from_blocks]
-        target[ground.nodes[from_ground]] = ground(nodes)[from_ground]
+        target[blocks.nodes[from_blocks]] = blocks(nodes).compress(from_blocks, axis=0)
+        target[ground.nodes[from_ground]] = ground(nodes).compress(from_ground, axis=0)
         proposal = np.where(keep, nodes, target)
         wanted = changed_rows(proposal, nodes)
         nodes, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled,

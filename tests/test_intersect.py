@@ -169,6 +169,59 @@ def test_near_cells_are_the_cells_around_the_seeds_with_a_table_or_a_sort():
     assert paths == {True, False}
 
 
+def test_pairs_within_slabs_are_every_close_pair_once():
+    # The slab search cuts the members along x into chunks, each searched
+    # with the band that follows it: every pair within the radius comes
+    # exactly once, whatever the chunk, with ties along x (a lattice) too.
+    from core.intersect import _pairs_within
+
+    rng = np.random.default_rng(11)
+    for trial in range(24):
+        n = int(rng.integers(2, 400))
+        centre = rng.random((n, 3)) * [20, 5, 5]
+        if trial % 3 == 0:
+            centre = np.round(centre)  # many points share an x
+        faces = rng.permutation(n)  # the rows of centre the members' positions name
+        members = np.sort(rng.choice(n, int(rng.integers(1, n + 1)), replace=False))
+        marked = rng.random(n) < [1.0, 0.3][trial % 2]
+        radius = float(rng.choice([0.5, 1.0, 1.5]))
+        at = centre[faces[members]]
+        close = np.linalg.norm(at[:, None] - at[None], axis=2) <= radius
+        i, j = np.nonzero(np.triu(close, 1))
+        i, j = members[i], members[j]
+        keep = marked[i] | marked[j]
+        expected = sorted(zip(i[keep].tolist(), j[keep].tolist()))
+        for chunk in (1, 7, 1000):
+            found = [(min(p), max(p)) for a, b in _pairs_within(centre, faces, members, radius, chunk, None, marked)
+                     for p in zip(a.tolist(), b.tolist())]
+            assert sorted(found) == expected
+
+
+def test_close_pairs_hold_every_pair_of_a_seed_whose_balls_meet():
+    # Faces of three sizes (three classes), some seeds: every pair of a seed
+    # and another face whose balls meet is found, once; no pair without a seed.
+    from core.intersect import _close_pairs
+
+    rng = np.random.default_rng(12)
+    for trial in range(12):
+        n = int(rng.integers(5, 500))
+        centre = rng.random((n, 3)) * 10
+        reach = rng.choice([0.2, 0.6, 1.5], size=n, p=[0.85, 0.12, 0.03]) * rng.uniform(0.5, 1, n)
+        faces = np.sort(rng.choice(n, n - n // 5, replace=False))
+        seeds = np.flatnonzero(rng.random(len(faces)) < [0.9, 0.1][trial % 2])
+        found = [(min(p), max(p)) for a, b in _close_pairs(centre, reach, faces, seeds, 16, None)
+                 for p in zip(a.tolist(), b.tolist())]
+        assert len(found) == len(set(found))
+        is_seed = np.zeros(len(faces), bool)
+        is_seed[seeds] = True
+        assert all(is_seed[a] or is_seed[b] for a, b in found)
+        c, r = centre[faces], reach[faces]
+        meet = np.linalg.norm(c[:, None] - c[None], axis=2) < r[:, None] + r[None]
+        i, j = np.nonzero(np.triu(meet, 1))
+        wanted = {(a, b) for a, b in zip(i.tolist(), j.tolist()) if is_seed[a] or is_seed[b]}
+        assert wanted <= set(found)
+
+
 def test_edge_crossings_per_coordinate_match_the_corner_tables_bit_for_bit():
     # The narrow phase on one array per coordinate does numpy's (P, 3)
     # arithmetic: on near-degenerate pairs (edges grazing a triangle, at
