@@ -74,10 +74,13 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     # into the block is judged reversed).
     a, b = model.regions[:, 0], model.regions[:, 1]
     block = np.flatnonzero((a > 0) | (b > 0))
-    split, split_quality = best_split(nodes, model.quads[block])
+    # take and compress: numpy's row gather and selection, several times
+    # faster on (M, 4) tables than indexing (numpy 1.24).
+    split, split_quality = best_split(nodes, model.quads.take(block, axis=0))
     split = split.reshape(-1, 2, 3)
     outward = a[block] > 0
-    triangles = np.concatenate([split[outward].reshape(-1, 3), split[~outward].reshape(-1, 3)[:, ::-1]])
+    triangles = np.concatenate([split.compress(outward, axis=0).reshape(-1, 3),
+                                split.compress(~outward, axis=0).reshape(-1, 3)[:, ::-1]])
     tri_owner = np.repeat(owner, 2)
     quality = np.concatenate([split_quality[outward], best_split(nodes, quads[outward.sum():])[1]])
     # Signed volume of the tetrahedra to a per-block reference point (any
