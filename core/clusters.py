@@ -39,18 +39,22 @@ def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
     >>> [c.tolist() for c in split_clusters([pts[:2], pts[2:]], 50.0)]
     [[0, 0], [1]]
     """
-    cells = [np.floor(points[:, :2] / gap).astype(np.int64) for points in parts]
-    lower = np.min([c.min(axis=0) for c in cells if len(c)], axis=0)
+    # The cells' two indices as separate arrays: numpy's reductions along
+    # axis 0 of (N, 2) tables stride through them.
+    cells = [[np.floor(points[:, k] / gap).astype(np.int64) for k in range(2)] for points in parts]
+    present = [c for c, points in zip(cells, parts) if len(points)]
+    lower = [min(c[k].min() for c in present) for k in range(2)]
     for c in cells:
-        c -= lower
-    shape = np.max([c.max(axis=0) for c in cells if len(c)], axis=0) + 1
+        c[0] -= lower[0]
+        c[1] -= lower[1]
+    shape = tuple(max(c[k].max() for c in present) + 1 for k in range(2))
     occupied = np.zeros(shape, dtype=bool)
-    for c in cells:
-        occupied[c[:, 0], c[:, 1]] = True
+    for i, j in cells:
+        occupied[i, j] = True
     labels, n = ndimage.label(occupied, structure=np.ones((3, 3), bool))
     if n <= 1:
-        return [np.zeros(len(c), dtype=labels.dtype) for c in cells]
-    return [labels[c[:, 0], c[:, 1]] - 1 for c in cells]
+        return [np.zeros(len(i), dtype=labels.dtype) for i, _ in cells]
+    return [labels[i, j] - 1 for i, j in cells]
 
 
 def merge(parts: list[Reconstruction]) -> Reconstruction:

@@ -139,7 +139,7 @@ def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
             out.write(f"solid {name}\n")
             for start in range(bounds[i], bounds[i + 1], _ROWS):
                 corner = faces[start:min(start + _ROWS, bounds[i + 1])]
-                tri = world[corner]
+                tri = world.take(corner, axis=0)  # take: faster than world[corner] (numpy 1.24)
                 normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
                 normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
                 fields = np.empty((len(corner), 4), dtype=object)
@@ -230,7 +230,7 @@ def _msh_topology(model: SurfaceModel, world: np.ndarray, triangles: SurfaceMode
     index = np.int32 if max(len(faces), n_nodes, len(interfaces)) < 2**31 else np.int64  # halves the tables
     patch_sorted, pair, pair_patch = _linked_parts(
         np.repeat(np.arange(len(faces), dtype=index), k), np.repeat(which[face_order].astype(index), k),
-        faces[face_order].astype(index).ravel(), len(faces), n_nodes)
+        faces.take(face_order, axis=0).astype(index).ravel(), len(faces), n_nodes)
     patch = np.empty(len(faces), dtype=np.int64)
     patch[face_order] = patch_sorted
     first_face = face_order[np.unique(patch_sorted, return_index=True)[1]]
@@ -343,7 +343,7 @@ def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> N
         for p in range(n_patches):
             members = t.face_order[t.patch_start[p]:t.patch_start[p + 1]]
             out.write(f"2 {p + 1} 2 {len(members)}\n")
-            _write_rows(out, row_format, np.column_stack([members + 1, t.faces[members] + 1]))
+            _write_rows(out, row_format, np.column_stack([members + 1, t.faces.take(members, axis=0) + 1]))
         out.write("$EndElements\n")
 
 
@@ -390,7 +390,7 @@ def _write_msh_binary(path: Path, topology: _MshTopology, world: np.ndarray) -> 
                 members = t.face_order[part:min(part + _ROWS, stop)]
                 block = rows[:len(members)]
                 block[:, 0] = members + 1
-                block[:, 1:] = t.faces[members] + 1
+                block[:, 1:] = t.faces.take(members, axis=0) + 1
                 out.write(block.data)
         out.write(b"\n$EndElements\n")
 

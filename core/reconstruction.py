@@ -107,7 +107,8 @@ class Reconstruction:
         faces, owner = self.layer_model.block_faces()
         index = lookup[owner]
         order = np.argsort(index, kind="stable")
-        rings = self.grid.to_world(self.mesh.nodes)[faces[order]]
+        # take: numpy's row gather, faster than indexing with an array (numpy 1.24).
+        rings = self.grid.to_world(self.mesh.nodes).take(faces.take(order, axis=0), axis=0)
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
         return multipolygons_z(rings, index[order], len(ids))
 
@@ -123,11 +124,11 @@ class Reconstruction:
         if len(faces) == 0:
             return []
         nodes = self.grid.to_world(model.nodes)
-        centre = model.nodes[faces].mean(axis=1)
+        centre = model.nodes.take(faces, axis=0).mean(axis=1)
         key = np.floor((centre[:, :2] - self.grid.origin[:2]) / (tile * self.grid.voxel_size)).astype(np.int64)
         index = unique_pairs(key)[1]
         order = np.argsort(index, kind="stable")
-        rings = nodes[faces[order]]
+        rings = nodes.take(faces.take(order, axis=0), axis=0)
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
         return multipolygons_z(rings, index[order], int(index.max()) + 1)
 
