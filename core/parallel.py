@@ -11,18 +11,23 @@ at 1 m: 1.4-1.7 s -> 1.0 s on 2 cores).
 
 The pool has one thread per core, or ``URBANVOX_THREADS`` (Dask workers get
 their share of the cores, :mod:`core.workers`).
+
+Work that runs on one core and releases the GIL (a KD-tree build) can also
+start early on a thread of its own, :func:`in_background`, while the steps
+before the one that needs it run.
 """
 from __future__ import annotations
 
 import os
 import threading
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Callable, Iterable, Sequence, TypeVar
 
 T = TypeVar("T")
 R = TypeVar("R")
 
 _pool: tuple[int, ThreadPoolExecutor] | None = None  # (threads, pool)
+_background: ThreadPoolExecutor | None = None
 _lock = threading.Lock()
 
 
@@ -49,6 +54,32 @@ def map_blocks(func: Callable[[T], R], blocks: Iterable[T]) -> list[R]:
     if not on_pool(blocks):
         return [func(block) for block in blocks]
     return list(_executor(thread_count()).map(func, blocks))
+
+
+def in_background(func: Callable[..., R], *args) -> Future:
+    """``func(*args)`` started now on a thread of its own; ``.result()`` waits
+    for it (and raises what it raised).
+
+    One such thread runs the calls in turn. With one thread
+    (``URBANVOX_THREADS=1``) the call runs here, at once.
+
+    Examples
+    --------
+    >>> in_background(sum, [1, 2, 3]).result()
+    6
+    """
+    global _background
+    if thread_count() <= 1:
+        future: Future = Future()
+        try:
+            future.set_result(func(*args))
+        except BaseException as exc:  # handed to whoever asks for the result, as a thread would
+            future.set_exception(exc)
+        return future
+    with _lock:
+        if _background is None:
+            _background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-background")
+    return _background.submit(func, *args)
 
 
 def on_pool(blocks: Sequence) -> bool:

@@ -39,3 +39,39 @@ def test_a_failing_block_raises_in_the_caller(monkeypatch):
 
     with pytest.raises(ValueError, match="block 2"):
         map_blocks(fail, row_blocks(10, 4))
+
+
+def test_background_work_runs_on_its_own_thread_unless_one_thread_is_asked(monkeypatch):
+    import threading
+
+    from core.parallel import in_background
+
+    def where_and_double(x):
+        return threading.get_ident(), 2 * x
+
+    here = threading.get_ident()
+    monkeypatch.setenv("URBANVOX_THREADS", "2")
+    ident, value = in_background(where_and_double, 21).result()
+    assert value == 42 and ident != here
+    monkeypatch.setenv("URBANVOX_THREADS", "1")
+    ident, value = in_background(where_and_double, 21).result()
+    assert value == 42 and ident == here
+    for threads in ("1", "2"):
+        monkeypatch.setenv("URBANVOX_THREADS", threads)
+        with pytest.raises(ZeroDivisionError):
+            in_background(lambda: 1 / 0).result()
+
+
+def test_the_pipeline_gives_the_same_model_with_one_thread_or_more(monkeypatch, district):
+    # The KD-trees are built in the background with threads, here without:
+    # the same nodes and blocks either way.
+    from core.pipeline import ReconstructionParams, reconstruct_point_cloud
+
+    results = []
+    for threads in ("1", "2"):
+        monkeypatch.setenv("URBANVOX_THREADS", threads)
+        results.append(reconstruct_point_cloud(district.laz, crs=district.crs,
+                                               params=ReconstructionParams(voxel_size=1.0)))
+    assert len(results[0].blocks) > 20
+    assert np.array_equal(results[0].mesh.nodes, results[1].mesh.nodes)
+    assert results[0].block_rows() == results[1].block_rows()
