@@ -68,8 +68,12 @@ def label_blocks(labels: np.ndarray) -> tuple[np.ndarray, int]:
     return blocks.astype(np.int32, copy=False), int(n)
 
 
-def block_attributes(blocks: np.ndarray, n: int, grid: VoxelGrid) -> BlockTable:
+def block_attributes(blocks: np.ndarray, n: int, grid: VoxelGrid,
+                     voxels: np.ndarray | None = None) -> BlockTable:
     """Voxel count, volume, footprint and vertical extent of every block.
+
+    ``voxels``: the flat indices of the block voxels, ``np.flatnonzero(blocks)``,
+    when the caller has them (a pass over the whole grid saved).
 
     Examples
     --------
@@ -83,7 +87,7 @@ def block_attributes(blocks: np.ndarray, n: int, grid: VoxelGrid) -> BlockTable:
     """
     nz = grid.shape[2]
     h = grid.voxel_size
-    ids, keys = _voxels_and_columns(blocks)
+    ids, keys = _voxels_and_columns(blocks, voxels)
     n_voxels = np.bincount(ids, minlength=n + 1)[1:]
     columns = np.bincount(keys // (grid.shape[0] * grid.shape[1]), minlength=n + 1)[1:]
     # One C pass gives every block's bounding box (None for an absent id).
@@ -115,7 +119,7 @@ def block_columns(blocks: np.ndarray) -> np.ndarray:
     return np.column_stack([key // (nx * ny), (key % (nx * ny)) // ny, key % ny])
 
 
-def _voxels_and_columns(blocks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _voxels_and_columns(blocks: np.ndarray, voxels: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The block id of every block voxel (C order), and the sorted distinct
     ``id * nx * ny + i * ny + j`` of the columns each block covers.
 
@@ -125,7 +129,7 @@ def _voxels_and_columns(blocks: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """
     nx, ny, nz = blocks.shape
     flat = blocks.reshape(-1)
-    where = np.flatnonzero(flat)
+    where = np.flatnonzero(flat) if voxels is None else voxels
     ids = flat[where].astype(np.int64)
     key = ids * (nx * ny) + where // nz
     run_start = np.ones(len(key), dtype=bool)
@@ -148,8 +152,10 @@ def small_blocks(table: BlockTable, min_height: float, min_footprint: float,
             | (table.volume < min_volume))
 
 
-def keep_blocks(blocks: np.ndarray, table: BlockTable, keep: np.ndarray) -> tuple[np.ndarray, BlockTable]:
-    """The blocks where ``keep`` is true, numbered ``1..k`` in their order.
+def keep_blocks(blocks: np.ndarray, table: BlockTable, keep: np.ndarray,
+                voxels: np.ndarray | None = None) -> tuple[np.ndarray, BlockTable]:
+    """The blocks where ``keep`` is true, numbered ``1..k`` in their order
+    (``voxels`` as for :func:`block_attributes`).
 
     A labelling of what is left numbers the blocks the same way (in the
     order of their first voxel) and finds the same attributes: the kept
@@ -169,14 +175,16 @@ def keep_blocks(blocks: np.ndarray, table: BlockTable, keep: np.ndarray) -> tupl
     table.block_id = np.arange(1, len(table) + 1, dtype=np.int64)
     # Only the block voxels (a few % of the grid) are looked up: new_id[blocks]
     # over the whole grid took 0.67 s on the 1 km city, this 0.18 s.
-    where = np.flatnonzero(blocks)
+    where = np.flatnonzero(blocks) if voxels is None else voxels
     kept = np.zeros(blocks.shape, dtype=blocks.dtype)
     np.put(kept, where, new_id[blocks.ravel()[where]])
     return kept, table
 
 
-def drop_blocks(labels: np.ndarray, blocks: np.ndarray, drop_ids: np.ndarray) -> None:
-    """Turn the voxels of the given blocks into air, in place.
+def drop_blocks(labels: np.ndarray, blocks: np.ndarray, drop_ids: np.ndarray,
+                voxels: np.ndarray | None = None) -> None:
+    """Turn the voxels of the given blocks into air, in place (``voxels`` as
+    for :func:`block_attributes`).
 
     A dropped block touches air (every block has an outer surface), so the air
     stays one volume. Well-composed labels stay well-composed: the blocks of
@@ -186,8 +194,9 @@ def drop_blocks(labels: np.ndarray, blocks: np.ndarray, drop_ids: np.ndarray) ->
     """
     if len(drop_ids) == 0:
         return
-    mask = np.zeros(int(blocks.max()) + 1, dtype=bool)
-    mask[drop_ids] = True
     # Only the block voxels are looked up (see keep_blocks).
-    where = np.flatnonzero(blocks)
-    np.put(labels, where[mask[blocks.ravel()[where]]], AIR)  # in place, whatever the layout
+    where = np.flatnonzero(blocks) if voxels is None else voxels
+    ids = blocks.ravel()[where]
+    mask = np.zeros(int(max(ids.max(initial=0), np.max(drop_ids))) + 1, dtype=bool)
+    mask[drop_ids] = True
+    np.put(labels, where[mask[ids]], AIR)  # in place, whatever the layout

@@ -401,11 +401,12 @@ def _blocks_above_thresholds(labels, grid, thresholds, is_cancelled):
     if is_cancelled is not None and is_cancelled():
         raise Cancelled()
     blocks, n = label_blocks(labels)
-    table = block_attributes(blocks, n, grid)
+    voxels = np.flatnonzero(blocks)  # one pass over the grid for the three steps
+    table = block_attributes(blocks, n, grid, voxels)
     small = small_blocks(table, *thresholds)
     if small.any():
-        drop_blocks(labels, blocks, table.block_id[small])
-        blocks, table = keep_blocks(blocks, table, ~small)
+        drop_blocks(labels, blocks, table.block_id[small], voxels)
+        blocks, table = keep_blocks(blocks, table, ~small, voxels)
     return blocks, table, int(small.sum())
 
 
