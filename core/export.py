@@ -139,7 +139,7 @@ def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
             out.write(f"solid {name}\n")
             for start in range(bounds[i], bounds[i + 1], _ROWS):
                 corner = faces[start:min(start + _ROWS, bounds[i + 1])]
-                tri = world.take(corner, axis=0)  # take: faster than world[corner] (numpy 1.24)
+                tri = world.take(corner, axis=0)  # faster than world[corner] (core.vectors)
                 normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
                 normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
                 fields = np.empty((len(corner), 4), dtype=object)

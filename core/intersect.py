@@ -14,8 +14,8 @@ corners); KD-trees over the centres, slab by slab along x, find those pairs,
 the few large faces in classes of their own so that they do not widen the
 search of all the others. The faces searched are quads (half as many as
 triangles, and a quad's ball, which holds both its triangles, is smaller
-than a triangle's own); only the quads met are split. Then the triangles' bounding boxes must
-overlap. Narrow phase: an edge of one triangle crossing the other
+than a triangle's own); only the quads met are split. Then the triangles
+must share no node, and their bounding boxes must overlap. Narrow phase: an edge of one triangle crossing the other
 (Moller-Trumbore on segments), both ways; coplanar touching is not reported.
 """
 from __future__ import annotations
@@ -143,8 +143,7 @@ def _balls(nodes: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
     def fill(rows: slice) -> None:
         corner = faces[rows]
-        # take: numpy's row gather, several times faster on (N, 3) tables
-        # than indexing with an array (numpy 1.24).
+        # take and compress: row gathers faster than indexing (core.vectors).
         total = nodes.take(corner[:, 0], axis=0)
         for k in range(1, corner.shape[1]):
             total += nodes.take(corner[:, k], axis=0)
@@ -265,8 +264,8 @@ def _pairs_within(centre: np.ndarray, faces: np.ndarray, members: np.ndarray, ra
     ``radius`` along x, and keeps the pairs with a member of the slab
     itself. A pair is so found in the slab of the one that comes first along
     x, and only there: each pair once, where a search of every chunk against
-    a tree of all the members finds each twice (3.1 s against 1.2 s for the
-    4.4 M seeds of the 1 km city's first round).
+    a tree of all the members finds each twice (1.2 s against 3.1 s for the
+    4.4 M faces of the largest size class of the 1 km city, on 2 cores).
 
     Examples
     --------

@@ -74,8 +74,7 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     # into the block is judged reversed).
     a, b = model.regions[:, 0], model.regions[:, 1]
     block = np.flatnonzero((a > 0) | (b > 0))
-    # take and compress: numpy's row gather and selection, several times
-    # faster on (M, 4) tables than indexing (numpy 1.24).
+    # take and compress: row gathers faster than indexing (core.vectors).
     split, split_quality = best_split(nodes, model.quads.take(block, axis=0))
     split = split.reshape(-1, 2, 3)
     outward = a[block] > 0

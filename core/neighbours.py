@@ -84,8 +84,7 @@ def _nearest_of(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int, m: int,
     earlier, later = dist[:, :-1], dist[:, 1:]
     unsure = np.flatnonzero((~(later > earlier) & (later != np.inf)).any(axis=1))
     if len(unsure):
-        # take: numpy's row gather, several times faster than indexing with
-        # an array on 2-D tables (numpy 1.24).
+        # take and compress: row gathers faster than indexing (core.vectors).
         d, i = dist.take(unsure, axis=0), idx.take(unsure, axis=0)
         order = by_value_then_coordinates(d, i, data, k)
         dist[unsure, :k] = np.take_along_axis(d, order, axis=1)

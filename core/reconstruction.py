@@ -107,7 +107,7 @@ class Reconstruction:
         faces, owner = self.layer_model.block_faces()
         index = lookup[owner]
         order = np.argsort(index, kind="stable")
-        # take: numpy's row gather, faster than indexing with an array (numpy 1.24).
+        # take and compress: row gathers faster than indexing (core.vectors).
         rings = self.grid.to_world(self.mesh.nodes).take(faces.take(order, axis=0), axis=0)
         rings = np.concatenate([rings, rings[:, :1]], axis=1)
         return multipolygons_z(rings, index[order], len(ids))

@@ -149,7 +149,7 @@ class SurfaceModel:
     def closed_surface(self, region: int) -> np.ndarray:
         """Quads bounding ``region``, oriented with normals pointing out of it."""
         index = self.faces_of(region)
-        quads = self.quads.take(index, axis=0)  # take: a copy, and faster than indexing (numpy 1.24)
+        quads = self.quads.take(index, axis=0)  # a copy, faster than indexing (core.vectors)
         inward = self.regions[index, 1] == region
         quads[inward] = quads.compress(inward, axis=0)[:, ::-1]
         return quads
@@ -193,7 +193,7 @@ class SurfaceModel:
         entry = np.flatnonzero(rank >= 0)
         key = rank[entry].astype(np.int16 if len(wanted) <= np.iinfo(np.int16).max else np.int64)
         entry = entry[np.argsort(key, kind="stable")]
-        quads = self.quads.take(entry >> 1, axis=0)  # take: faster than indexing (numpy 1.24)
+        quads = self.quads.take(entry >> 1, axis=0)  # faster than indexing (core.vectors)
         inward = (entry & 1).astype(bool)  # side 1: the face points into the region, flip it
         quads[inward] = quads.compress(inward, axis=0)[:, ::-1]
         return quads, side_region[entry].astype(np.int32)
@@ -205,7 +205,7 @@ class SurfaceModel:
         """
         a, b = self.regions[:, 0], self.regions[:, 1]
         first, second = a > 0, b > 0
-        # compress: faster than indexing with a mask (numpy 1.24).
+        # take and compress: row gathers faster than indexing (core.vectors).
         faces = np.concatenate([self.quads.compress(first, axis=0), self.quads.compress(second, axis=0)[:, ::-1]])
         return faces, np.concatenate([a[first], b[second]])
 

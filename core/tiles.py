@@ -212,8 +212,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
     in_core = ((centre[0] >= 4 * ci0) & ((centre[0] < 4 * ci1) | (ci1 == nx))
                & (centre[1] >= 4 * cj0) & ((centre[1] < 4 * cj1) | (cj1 == ny)))
     keep = keep_block | (~block_face & in_core)
-    # compress and take: numpy's row selection and gather, several times
-    # faster on 2-D tables than indexing (numpy 1.24).
+    # take and compress: row gathers faster than indexing (core.vectors).
     quads = quads.compress(keep, axis=0)
     used, inverse = unique_nodes(quads, len(surface.nodes))
     kept_regions = regions.compress(keep, axis=0)

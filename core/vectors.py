@@ -12,6 +12,14 @@ code moved to them gives the same numbers to the last bit:
 * :func:`dot` is ``np.einsum("ij,ij->i", u, v)``, which in numpy 1.24 adds
   the x and z products first, then the y one;
 * :func:`length` is ``np.linalg.norm(v, axis=1)``.
+
+Rows of 2-D tables (nodes, quads, triangles, points) are gathered with
+``table.take(index, axis=0)`` and selected with ``table.compress(mask,
+axis=0)`` throughout the core: the rows of ``table[index]`` and
+``table[mask]``, which numpy 1.24 copies through its generic indexing loop,
+3 to 7 times slower on (N, 3) and (M, 4) tables (``compress`` is also 2.5
+times faster on a 1-D array). A 1-D table keeps plain indexing: as fast,
+and ``take`` is slower with a large int32 index.
 """
 from __future__ import annotations
 
