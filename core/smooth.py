@@ -30,7 +30,7 @@ from scipy import sparse
 from .errors import Cancelled
 from .quality import FaceState, accept_moves
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel, unique_nodes
-from .topology import changed_rows
+from .topology import changed_rows, sorted_unique
 
 
 @dataclass
@@ -123,7 +123,7 @@ class CatmullClarkStep:
         # Each undirected edge once.
         tail = faces.ravel()
         head = np.roll(faces, -1, axis=1).ravel()
-        key = np.unique(np.minimum(tail, head).astype(np.int64) * size + np.maximum(tail, head))
+        key = sorted_unique(np.minimum(tail, head).astype(np.int64) * size + np.maximum(tail, head))
         ends = np.column_stack([key // size, key % size]).ravel()
         e = len(key)
         del tail, head, key

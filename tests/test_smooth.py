@@ -38,3 +38,15 @@ def test_the_step_is_catmull_clark_at_every_node_of_closed_and_open_surfaces(see
         moved = step(nodes)
         expected = np.array([catmull_clark_reference(nodes, faces, i) for i in step.nodes])
         np.testing.assert_allclose(moved, expected, rtol=0, atol=1e-12)
+
+
+def test_sorted_unique_is_np_unique_on_ordered_and_shuffled_keys():
+    # The Catmull-Clark step's edge keys go through sorted_unique (numpy's
+    # stable sort, fast on keys nearly in order): the same keys as np.unique.
+    from core.topology import sorted_unique
+
+    rng = np.random.default_rng(4)
+    for n in (0, 1, 7, 10_000):
+        keys = np.sort(rng.integers(0, n // 2 + 1, n)) + rng.integers(0, 3, n)  # nearly in order
+        for values in (keys, rng.permutation(keys)):
+            assert np.array_equal(sorted_unique(values), np.unique(values))
