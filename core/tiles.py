@@ -280,9 +280,11 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     nx1, ny1 = domain.shape[0] + 1, domain.shape[1] + 1
     flat = keys[:, 0].astype(np.int64) + nx1 * (keys[:, 1] + ny1 * keys[:, 2].astype(np.int64))
     # Sorted by node, then rank: one sort of a combined key (unique, a node
-    # has one copy per tile), not numpy's two-pass lexsort.
+    # has one copy per tile), not numpy's two-pass lexsort. Each piece's
+    # nodes come in lattice order: timsort (the stable sort) merges those
+    # runs, and the keys being unique, it gives quicksort's order.
     if int(flat.max()) < np.iinfo(np.int64).max // (2 * len(pieces)):
-        by_rank = np.argsort(flat * (2 * len(pieces)) + rank)
+        by_rank = np.argsort(flat * (2 * len(pieces)) + rank, kind="stable")
     else:  # pragma: no cover - lattices of more than 4e18 / tiles nodes
         by_rank = np.lexsort((rank, flat))
     flat = flat[by_rank]
