@@ -33,23 +33,37 @@ def touching(marked: np.ndarray, faces: np.ndarray) -> np.ndarray:
     return hit
 
 
-def sorted_unique(values: np.ndarray) -> np.ndarray:
-    """``np.unique(values)`` of a 1-D array, by numpy's stable sort.
+def sorted_unique(values: np.ndarray, return_inverse: bool = False):
+    """``np.unique(values, return_inverse=...)`` of a 1-D array, by numpy's
+    stable sort.
 
     For integers that is timsort, which runs several times faster than the
-    quicksort of ``np.unique`` on values that come nearly in order, as the
-    edge keys of faces listed in lattice order do (5 M keys of the 500 m
-    city's ground: 0.29 -> 0.1 s).
+    quicksort of ``np.unique`` on values that come nearly in order or in
+    runs, as the edge keys of faces listed in lattice order (5 M keys of the
+    500 m city's ground: 0.29 -> 0.1 s) and the cells of points sampled
+    triangle by triangle do (5 M points of the Zurich mesh: 0.67-0.8 ->
+    0.23 s, with the inverse). The values and the inverse are those of
+    ``np.unique``, whatever the sort.
 
     Examples
     --------
     >>> sorted_unique(np.array([3, 1, 3, 2, 1])).tolist()
     [1, 2, 3]
+    >>> [a.tolist() for a in sorted_unique(np.array([3, 1, 3]), return_inverse=True)]
+    [[1, 3], [1, 0, 1]]
     """
-    ordered = np.sort(values, kind="stable")
+    if not return_inverse:
+        ordered = np.sort(values, kind="stable")
+    else:
+        order = np.argsort(values, kind="stable")
+        ordered = values[order]
     first = np.ones(len(ordered), dtype=bool)
     np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
-    return ordered[first]
+    if not return_inverse:
+        return ordered[first]
+    inverse = np.empty(len(values), dtype=np.intp)
+    inverse[order] = np.cumsum(first) - 1
+    return ordered[first], inverse
 
 
 def changed_rows(new: np.ndarray, old: np.ndarray) -> np.ndarray:

@@ -159,3 +159,24 @@ def test_real_zurich_sampling_at_1m(shared_data: Path):
     assert count == expected == len(pts)
     lo, hi = corners.reshape(-1, 3).min(axis=0), corners.reshape(-1, 3).max(axis=0)
     assert np.all(pts.min(axis=0) >= lo - 1e-6) and np.all(pts.max(axis=0) <= hi + 1e-6)
+
+
+def test_cell_means_match_np_unique_with_runs_and_without():
+    # _cell_means sorts only the keys of runs of points in one cell: the same
+    # cells, counts and sums as np.unique's inverse and bincount, bit for bit.
+    from core.sampling import _cell_means
+
+    rng = np.random.default_rng(9)
+    cell, low = 0.5, np.array([-2, -2, -2])
+    for trial in range(6):
+        points = rng.random((int(rng.integers(1, 5000)), 3)) * 4
+        if trial % 2:
+            points = np.sort(points, axis=0)  # long runs in one cell
+        ijk = np.floor(points / cell).astype(np.int64) - low
+        key = ijk[:, 0] | (ijk[:, 1] << 21) | (ijk[:, 2] << 42)
+        unique, inverse = np.unique(key, return_inverse=True)
+        sums = np.column_stack([np.bincount(inverse, weights=points[:, c]) for c in range(3)])
+        got_unique, got_sums, got_counts = _cell_means(points, cell, low)
+        assert np.array_equal(got_unique, unique)
+        assert np.array_equal(got_counts, np.bincount(inverse).astype(float))
+        assert np.array_equal(got_sums, sums)
