@@ -10,7 +10,7 @@ nodes until none is left.
 
 Broad phase: two faces can only meet if their centres are closer than the
 sum of their reaches (the largest distance from a face's centre to its
-corners); KD-trees over the centres, slab by slab along x, find those pairs,
+corners); KD-trees over the centres, slab by slab along x or y, find those pairs,
 the few large faces in classes of their own so that they do not widen the
 search of all the others. The faces searched are quads (half as many as
 triangles, and a quad's ball, which holds both its triangles, is smaller
@@ -217,11 +217,6 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, faces: np.ndarray, seeds
     members = [np.flatnonzero(size_class == k) for k in range(len(bounds) + 1)]
     del size_class
 
-    def with_seed(pairs: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-        a, b = pairs
-        keep = is_seed[a] | is_seed[b]
-        return a[keep], b[keep]
-
     for k, group in enumerate(members):
         if len(group) == 0:
             continue
@@ -242,7 +237,7 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, faces: np.ndarray, seeds
                     raise Cancelled()
                 pairs = search_tree(centre.take(faces[part], axis=0)).sparse_distance_matrix(tree, radius,
                                                                                 output_type="ndarray")
-                return with_seed((part[pairs["i"]], larger[pairs["j"]]))
+                return _with_marked(part[pairs["i"]], larger[pairs["j"]], is_seed)
 
             # The KD-tree searches release the GIL: a chunk per thread at a
             # time, yielded in order (memory: one chunk's pairs per thread).
@@ -259,13 +254,17 @@ def _pairs_within(centre: np.ndarray, faces: np.ndarray, members: np.ndarray, ra
     apart, once; only those with a ``marked`` one (a mask over ``faces``)
     if given.
 
-    The members are sorted along x and cut into slabs of ``chunk``; a
-    slab's tree also holds the band of members that follow it within
-    ``radius`` along x, and keeps the pairs with a member of the slab
-    itself. A pair is so found in the slab of the one that comes first along
-    x, and only there: each pair once, where a search of every chunk against
-    a tree of all the members finds each twice (1.2 s against 3.1 s for the
-    4.4 M faces of the largest size class of the 1 km city, on 2 cores).
+    The members are sorted along x or y, whichever they spread the more
+    along, and cut into slabs of ``chunk``; a slab's tree also holds the
+    band of members that follow it within ``radius`` along that axis, and
+    keeps the pairs with a member of the slab itself. A pair is so found in
+    the slab of the one that comes first, and only there: each pair once,
+    where a search of every chunk against a tree of all the members finds
+    each twice (1.2 s against 3.1 s for the 4.4 M faces of the largest size
+    class of the 1 km city, on 2 cores). Where the bands would hold more
+    than a chunk (members crowded within a few radii along both axes), the
+    slabs' work would grow with the square of their number: those members
+    are searched chunk against a tree of all, each pair kept once.
 
     Examples
     --------
@@ -274,9 +273,16 @@ def _pairs_within(centre: np.ndarray, faces: np.ndarray, members: np.ndarray, ra
     >>> sorted(tuple(sorted(p)) for a, b in pairs for p in zip(a.tolist(), b.tolist()))
     [(0, 1), (0, 3)]
     """
-    x = centre[faces[members], 0]
-    order = np.argsort(x, kind="stable")
-    x = x[order]
+    at = faces[members]
+    along = [centre[at, c] for c in range(2)]
+    spread = [float(np.ptp(v)) if len(v) else 0.0 for v in along]
+    axis = int(np.argmax(spread))
+    if len(members) * radius > chunk * max(spread[axis], radius):
+        yield from _pairs_by_chunks(centre, at, members, radius, chunk, is_cancelled, marked)
+        return
+    order = np.argsort(along[axis], kind="stable")
+    x = along[axis][order]
+    del along
     starts = range(0, len(members), chunk)
 
     def search(start: int) -> tuple[np.ndarray, np.ndarray]:
@@ -287,14 +293,38 @@ def _pairs_within(centre: np.ndarray, faces: np.ndarray, members: np.ndarray, ra
         slab = members[order[start:band_end]]
         pairs = search_tree(centre.take(faces[slab], axis=0)).query_pairs(radius, output_type="ndarray")
         pairs = pairs[pairs[:, 0] < end - start]  # query_pairs gives i < j: i is in the slab
-        a, b = slab[pairs[:, 0]], slab[pairs[:, 1]]
-        if marked is not None:
-            keep = marked[a] | marked[b]
-            a, b = a[keep], b[keep]
-        return a, b
+        return _with_marked(slab[pairs[:, 0]], slab[pairs[:, 1]], marked)
 
     for batch in row_blocks(len(starts), thread_count()):
         yield from map_blocks(search, starts[batch])
+
+
+def _pairs_by_chunks(centre: np.ndarray, at: np.ndarray, members: np.ndarray, radius: float,
+                     chunk: int, is_cancelled: Callable[[], bool] | None, marked: np.ndarray | None):
+    """:func:`_pairs_within` by chunks of ``members`` searched against a tree
+    of them all (``at`` their rows of ``centre``): each pair is found from
+    both sides and kept once."""
+    tree = search_tree(centre.take(at, axis=0))
+
+    def search(part: slice) -> tuple[np.ndarray, np.ndarray]:
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
+        pairs = search_tree(centre.take(at[part], axis=0)).sparse_distance_matrix(tree, radius,
+                                                                                 output_type="ndarray")
+        i, j = pairs["i"] + part.start, pairs["j"]
+        return _with_marked(members[i[i < j]], members[j[i < j]], marked)
+
+    parts = row_blocks(len(members), chunk)
+    for batch in row_blocks(len(parts), thread_count()):
+        yield from map_blocks(search, parts[batch])
+
+
+def _with_marked(a: np.ndarray, b: np.ndarray, marked: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """The pairs ``(a, b)`` with a ``marked`` member (all without a mask)."""
+    if marked is None:
+        return a, b
+    keep = marked[a] | marked[b]
+    return a[keep], b[keep]
 
 
 def _edges_cross(edges_of: list[Vector], faces: list[Vector]) -> np.ndarray:

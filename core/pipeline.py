@@ -267,7 +267,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     # elimination, the projection and the distances measured at the end; one
     # over the ground points those distances) are built on a thread of their
     # own while the voxel steps run, which mostly use one core: 1.4 s of
-    # builds on the 1 km city.
+    # builds on the 1 km city. The trees hold these arrays, not copies of
+    # them: nothing below writes to them.
     building_tree = in_background(search_tree, building)
     ground_tree = in_background(search_tree, ground)
     lap("grid")

@@ -169,18 +169,31 @@ def test_near_cells_are_the_cells_around_the_seeds_with_a_table_or_a_sort():
     assert paths == {True, False}
 
 
-def test_pairs_within_slabs_are_every_close_pair_once():
-    # The slab search cuts the members along x into chunks, each searched
-    # with the band that follows it: every pair within the radius comes
-    # exactly once, whatever the chunk, with ties along x (a lattice) too.
+def test_pairs_within_slabs_are_every_close_pair_once(monkeypatch):
+    # The slab search cuts the members along x or y into chunks, each
+    # searched with the band that follows it; crowded members (a wall across
+    # the slab axis) are searched chunk against a tree of all. Either way
+    # every pair within the radius comes exactly once, whatever the chunk,
+    # with ties along the axis (a lattice) too.
+    from core import intersect
     from core.intersect import _pairs_within
 
+    by_chunks = []
+    real = intersect._pairs_by_chunks
+
+    def counted(*args):
+        by_chunks.append(True)
+        yield from real(*args)
+
+    monkeypatch.setattr(intersect, "_pairs_by_chunks", counted)
     rng = np.random.default_rng(11)
-    for trial in range(24):
+    paths = set()
+    for trial in range(36):
         n = int(rng.integers(2, 400))
-        centre = rng.random((n, 3)) * [20, 5, 5]
-        if trial % 3 == 0:
-            centre = np.round(centre)  # many points share an x
+        shape = [[200, 5, 5], [5, 200, 5], [0, 3, 5]][trial % 3]  # along x, along y, a wall
+        centre = rng.random((n, 3)) * shape
+        if trial % 4 == 0:
+            centre = np.round(centre)  # many points share a coordinate
         faces = rng.permutation(n)  # the rows of centre the members' positions name
         members = np.sort(rng.choice(n, int(rng.integers(1, n + 1)), replace=False))
         marked = rng.random(n) < [1.0, 0.3][trial % 2]
@@ -192,9 +205,12 @@ def test_pairs_within_slabs_are_every_close_pair_once():
         keep = marked[i] | marked[j]
         expected = sorted(zip(i[keep].tolist(), j[keep].tolist()))
         for chunk in (1, 7, 1000):
+            by_chunks.clear()
             found = [(min(p), max(p)) for a, b in _pairs_within(centre, faces, members, radius, chunk, None, marked)
                      for p in zip(a.tolist(), b.tolist())]
             assert sorted(found) == expected
+            paths.add((bool(by_chunks), chunk < len(members)))
+    assert paths >= {(False, True), (True, True)}  # slabs and chunks, each with several parts
 
 
 def test_close_pairs_hold_every_pair_of_a_seed_whose_balls_meet():
