@@ -235,8 +235,8 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, faces: np.ndarray, seeds
                        radius: float = radius) -> tuple[np.ndarray, np.ndarray]:
                 if is_cancelled is not None and is_cancelled():
                     raise Cancelled()
-                pairs = search_tree(centre.take(faces[part], axis=0)).sparse_distance_matrix(tree, radius,
-                                                                                output_type="ndarray")
+                part_tree = search_tree(centre.take(faces[part], axis=0))
+                pairs = part_tree.sparse_distance_matrix(tree, radius, output_type="ndarray")
                 return _with_marked(part[pairs["i"]], larger[pairs["j"]], is_seed)
 
             # The KD-tree searches release the GIL: a chunk per thread at a
@@ -309,8 +309,8 @@ def _pairs_by_chunks(centre: np.ndarray, at: np.ndarray, members: np.ndarray, ra
     def search(part: slice) -> tuple[np.ndarray, np.ndarray]:
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        pairs = search_tree(centre.take(at[part], axis=0)).sparse_distance_matrix(tree, radius,
-                                                                                 output_type="ndarray")
+        part_tree = search_tree(centre.take(at[part], axis=0))
+        pairs = part_tree.sparse_distance_matrix(tree, radius, output_type="ndarray")
         i, j = pairs["i"] + part.start, pairs["j"]
         return _with_marked(members[i[i < j]], members[j[i < j]], marked)
 
