@@ -225,7 +225,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
     measures = result.measures.select(own_ids[order] - 1)
     fc_keep = renumber[ids] > 0
     columns = np.column_stack([renumber[ids[fc_keep]], gi[fc_keep], gj[fc_keep]])
-    columns = columns[np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0]))]
+    columns = columns.take(np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0])), axis=0)
     return TilePiece(
         job.index, keys=keys.take(used, axis=0), moved=mesh.nodes.take(used, axis=0), priority=priority[used],
         quads=inverse.reshape(quads.shape).astype(np.int32), regions=new_regions.astype(np.int32),
@@ -294,8 +294,9 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     node_of = np.empty(len(by_rank), dtype=np.int64)
     node_of[by_rank] = np.cumsum(first) - 1
     del by_rank, first
-    nodes = keys[chosen].astype(np.float64) * h
-    final = np.concatenate(moved)[chosen]
+    # take: row gathers faster than indexing (core.vectors).
+    nodes = keys.take(chosen, axis=0).astype(np.float64) * h
+    final = np.concatenate(moved).take(chosen, axis=0)
     # Each piece's quads through its own stretch of node_of: no int64 copy of
     # them all to concatenate first.
     all_quads = np.empty((sum(len(p.quads) for p in pieces), 4), dtype=np.int64)
@@ -314,7 +315,7 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     table.block_id = np.arange(1, len(by_id) + 1, dtype=np.int64)
     measures = BlockMeasures.concatenate([p.measures for p in pieces]).select(by_id)
     columns = np.concatenate(columns)
-    columns = columns[np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0]))]
+    columns = columns.take(np.lexsort((columns[:, 2], columns[:, 1], columns[:, 0])), axis=0)
     return grid, table, surface, mesh, measures, columns
 
 
