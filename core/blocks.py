@@ -15,6 +15,7 @@ from scipy import ndimage
 
 from .classify import AIR, BUILDING, FACE_ADJACENCY
 from .grid import VoxelGrid
+from .topology import run_starts, sorted_unique
 
 
 class BlockRows:
@@ -132,9 +133,7 @@ def _voxels_and_columns(blocks: np.ndarray, voxels: np.ndarray | None = None) ->
     where = np.flatnonzero(flat) if voxels is None else voxels
     ids = flat[where].astype(np.int64)
     key = ids * (nx * ny) + where // nz
-    run_start = np.ones(len(key), dtype=bool)
-    run_start[1:] = key[1:] != key[:-1]
-    return ids, np.unique(key[run_start])
+    return ids, sorted_unique(key[run_starts(key)])
 
 
 def small_blocks(table: BlockTable, min_height: float, min_footprint: float,

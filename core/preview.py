@@ -16,6 +16,7 @@ import numpy as np
 
 from .heap import reusing_freed_memory
 from .surface import AIR_REGION, GROUND_REGION, SurfaceModel, rank_in
+from .topology import run_starts
 
 #: Viewer direction (from the scene towards the eye): south-west, 35 degrees up.
 _AZIMUTH, _ELEVATION = np.radians(-120.0), np.radians(35.0)
@@ -142,8 +143,7 @@ def _rasterised(view: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, tupl
     key = (row * width + column) << 31 | behind.astype(np.int64)
     order = np.argsort(key)
     pixel_of = key[order] >> 31
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = pixel_of[1:] != pixel_of[:-1]
+    first = run_starts(pixel_of)
     nearest = order[first]
     image = np.zeros((height * width, 4))
     image[pixel_of[first]] = colours[owner[nearest]]

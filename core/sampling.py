@@ -30,7 +30,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 from .errors import Cancelled, UrbanvoxError
-from .topology import sorted_unique
+from .topology import run_starts, sorted_unique
 
 __all__ = ["refinement", "lattice", "estimate_sample_count", "iter_sample_triangles", "sample_triangles",
            "sample_thinned"]
@@ -211,9 +211,7 @@ def _cell_means(points: np.ndarray, cell: float, low: np.ndarray):
     # runs' keys are sorted (a stable sort, which takes runs fast), and the
     # runs then hand their number to their points. The same cells and
     # inverse as np.unique(key, return_inverse=True), 2.4 times faster.
-    starts = np.ones(len(key), dtype=bool)
-    np.not_equal(key[1:], key[:-1], out=starts[1:])
-    starts = np.flatnonzero(starts)
+    starts = np.flatnonzero(run_starts(key))
     unique, run_inverse = sorted_unique(key[starts], return_inverse=True)
     inverse = np.repeat(run_inverse, np.diff(np.append(starts, len(key))))
     counts = np.bincount(inverse).astype(np.float64)

@@ -47,6 +47,7 @@ from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
 from .measure import BlockMeasures
 from .surface import SurfaceModel, unique_nodes
+from .topology import run_starts
 from .workers import TileRunner
 
 Columns = tuple[int, int, int, int]  # i0, j0, i1, j1 (half-open), global columns
@@ -288,7 +289,7 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     else:  # pragma: no cover - lattices of more than 4e18 / tiles nodes
         by_rank = np.lexsort((rank, flat))
     flat = flat[by_rank]
-    first = np.concatenate([[True], flat[1:] != flat[:-1]])  # a node's best-ranked copy
+    first = run_starts(flat)  # a node's best-ranked copy
     del flat
     chosen = by_rank[first]
     node_of = np.empty(len(by_rank), dtype=np.int64)

@@ -54,16 +54,27 @@ def sorted_unique(values: np.ndarray, return_inverse: bool = False):
     """
     if not return_inverse:
         ordered = np.sort(values, kind="stable")
-    else:
-        order = np.argsort(values, kind="stable")
-        ordered = values[order]
-    first = np.ones(len(ordered), dtype=bool)
-    np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
-    if not return_inverse:
-        return ordered[first]
+        return ordered[run_starts(ordered)]
+    order = np.argsort(values, kind="stable")
+    ordered = values[order]
+    first = run_starts(ordered)
     inverse = np.empty(len(values), dtype=np.intp)
     inverse[order] = np.cumsum(first) - 1
     return ordered[first], inverse
+
+
+def run_starts(values: np.ndarray) -> np.ndarray:
+    """Where each run of equal values of a 1-D array starts: the first value,
+    and every value unlike the one before it.
+
+    Examples
+    --------
+    >>> run_starts(np.array([4, 4, 2, 2, 2, 4])).tolist()
+    [True, False, True, False, False, True]
+    """
+    starts = np.ones(len(values), dtype=bool)
+    np.not_equal(values[1:], values[:-1], out=starts[1:])
+    return starts
 
 
 def changed_rows(new: np.ndarray, old: np.ndarray) -> np.ndarray:

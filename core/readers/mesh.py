@@ -33,6 +33,7 @@ from scipy.ndimage import minimum_filter
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import Cancelled, UrbanvoxError
+from ..topology import run_starts
 
 __all__ = ["MESH_SUFFIXES", "Triangles", "read_triangles", "base_points", "edge_counts"]
 
@@ -241,10 +242,10 @@ def edge_counts(tris: Triangles) -> Tuple[int, int]:
 def _part_minimum(labels: np.ndarray, z: np.ndarray, n_parts: int) -> np.ndarray:
     """Lowest z of every connected part (sort-based, no Python loop)."""
     order = np.lexsort((z, labels))
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = labels[order][1:] != labels[order][:-1]
+    ordered = labels[order]
+    first = run_starts(ordered)
     low = np.full(n_parts, np.inf)
-    low[labels[order][first]] = z[order][first]
+    low[ordered[first]] = z[order][first]
     return low
 
 
@@ -258,9 +259,9 @@ def _not_floating(points: np.ndarray, unit: float) -> np.ndarray:
     flat = np.ravel_multi_index((ij[:, 0], ij[:, 1]), shape)
     cell_low = np.full(shape, np.inf)
     order = np.lexsort((points[:, 2], flat))
-    first = np.ones(len(order), dtype=bool)
-    first[1:] = flat[order][1:] != flat[order][:-1]
-    cell_low.flat[flat[order][first]] = points[order, 2][first]
+    ordered = flat[order]
+    first = run_starts(ordered)
+    cell_low.flat[ordered[first]] = points[order, 2][first]
     # Ring k covers cells within k of the candidate's cell: horizontal distance
     # below (k + 1) * cell. The allowed height grows with that distance.
     rings = max(1, int(np.ceil(FLOAT_RADIUS_M / unit / cell)))
