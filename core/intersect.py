@@ -226,24 +226,9 @@ def _close_pairs(centre: np.ndarray, reach: np.ndarray, faces: np.ndarray, seeds
         # Then with the faces of the larger classes, a few (the largest of
         # them) in a tree, searched a chunk of this class at a time.
         for larger in members[k + 1:]:
-            if len(larger) == 0:
-                continue
-            tree = search_tree(centre.take(faces[larger], axis=0))
-            radius = (reach[group].max() + reach[larger].max()) * (1 + 1e-9)
-
-            def search(part: np.ndarray, larger: np.ndarray = larger, tree=tree,
-                       radius: float = radius) -> tuple[np.ndarray, np.ndarray]:
-                if is_cancelled is not None and is_cancelled():
-                    raise Cancelled()
-                part_tree = search_tree(centre.take(faces[part], axis=0))
-                pairs = part_tree.sparse_distance_matrix(tree, radius, output_type="ndarray")
-                return _with_marked(part[pairs["i"]], larger[pairs["j"]], is_seed)
-
-            # The KD-tree searches release the GIL: a chunk per thread at a
-            # time, yielded in order (memory: one chunk's pairs per thread).
-            parts = [group[start:start + chunk] for start in range(0, len(group), chunk)]
-            for batch in row_blocks(len(parts), thread_count()):
-                yield from map_blocks(search, parts[batch])
+            if len(larger):
+                radius = (reach[group].max() + reach[larger].max()) * (1 + 1e-9)
+                yield from _pairs_between(centre, faces, group, larger, radius, chunk, is_cancelled, is_seed)
 
 
 def _pairs_within(centre: np.ndarray, faces: np.ndarray, members: np.ndarray, radius: float,
@@ -273,18 +258,15 @@ def _pairs_within(centre: np.ndarray, faces: np.ndarray, members: np.ndarray, ra
     >>> sorted(tuple(sorted(p)) for a, b in pairs for p in zip(a.tolist(), b.tolist()))
     [(0, 1), (0, 3)]
     """
-    at = faces[members]
-    along = [centre[at, c] for c in range(2)]
+    along = [centre[faces[members], c] for c in range(2)]
     spread = [float(np.ptp(v)) if len(v) else 0.0 for v in along]
     axis = int(np.argmax(spread))
     if len(members) * radius > chunk * max(spread[axis], radius):
-        yield from _pairs_by_chunks(centre, at, members, radius, chunk, is_cancelled, marked)
+        yield from _pairs_between(centre, faces, members, None, radius, chunk, is_cancelled, marked)
         return
     order = np.argsort(along[axis], kind="stable")
     x = along[axis][order]
     del along
-    starts = range(0, len(members), chunk)
-
     def search(start: int) -> tuple[np.ndarray, np.ndarray]:
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
@@ -295,26 +277,41 @@ def _pairs_within(centre: np.ndarray, faces: np.ndarray, members: np.ndarray, ra
         pairs = pairs[pairs[:, 0] < end - start]  # query_pairs gives i < j: i is in the slab
         return _with_marked(slab[pairs[:, 0]], slab[pairs[:, 1]], marked)
 
-    for batch in row_blocks(len(starts), thread_count()):
-        yield from map_blocks(search, starts[batch])
+    yield from _on_threads(search, list(range(0, len(members), chunk)))
 
 
-def _pairs_by_chunks(centre: np.ndarray, at: np.ndarray, members: np.ndarray, radius: float,
-                     chunk: int, is_cancelled: Callable[[], bool] | None, marked: np.ndarray | None):
-    """:func:`_pairs_within` by chunks of ``members`` searched against a tree
-    of them all (``at`` their rows of ``centre``): each pair is found from
-    both sides and kept once."""
-    tree = search_tree(centre.take(at, axis=0))
+def _pairs_between(centre: np.ndarray, faces: np.ndarray, members: np.ndarray, others: np.ndarray | None,
+                   radius: float, chunk: int, is_cancelled: Callable[[], bool] | None,
+                   marked: np.ndarray | None):
+    """Yield arrays ``(a, b)``: every pair of one of ``members`` and one of
+    ``others`` (positions in ``faces``, rows of ``centre``) whose centres are
+    at most ``radius`` apart; only those with a ``marked`` one if given.
+
+    A chunk of ``members`` at a time is searched against a tree of
+    ``others``. Without ``others``, the members are searched against
+    themselves: each pair is found from both sides and kept once.
+    """
+    within = others is None
+    others = members if within else others
+    tree = search_tree(centre.take(faces[others], axis=0))
 
     def search(part: slice) -> tuple[np.ndarray, np.ndarray]:
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        part_tree = search_tree(centre.take(at[part], axis=0))
+        part_tree = search_tree(centre.take(faces[members[part]], axis=0))
         pairs = part_tree.sparse_distance_matrix(tree, radius, output_type="ndarray")
         i, j = pairs["i"] + part.start, pairs["j"]
-        return _with_marked(members[i[i < j]], members[j[i < j]], marked)
+        if within:
+            i, j = i[i < j], j[i < j]
+        return _with_marked(members[i], others[j], marked)
 
-    parts = row_blocks(len(members), chunk)
+    yield from _on_threads(search, row_blocks(len(members), chunk))
+
+
+def _on_threads(search: Callable, parts: list):
+    """Yield ``search(part)`` for every part, in order. The KD-tree searches
+    release the GIL: a part per thread at a time (memory: one part's pairs
+    per thread)."""
     for batch in row_blocks(len(parts), thread_count()):
         yield from map_blocks(search, parts[batch])
 

@@ -179,13 +179,13 @@ def test_pairs_within_slabs_are_every_close_pair_once(monkeypatch):
     from core.intersect import _pairs_within
 
     by_chunks = []
-    real = intersect._pairs_by_chunks
+    real = intersect._pairs_between
 
-    def counted(*args):
-        by_chunks.append(True)
-        yield from real(*args)
+    def counted(centre, faces, members, others, *args):
+        by_chunks.append(others is None)  # the members against themselves
+        yield from real(centre, faces, members, others, *args)
 
-    monkeypatch.setattr(intersect, "_pairs_by_chunks", counted)
+    monkeypatch.setattr(intersect, "_pairs_between", counted)
     rng = np.random.default_rng(11)
     paths = set()
     for trial in range(36):
@@ -209,7 +209,7 @@ def test_pairs_within_slabs_are_every_close_pair_once(monkeypatch):
             found = [(min(p), max(p)) for a, b in _pairs_within(centre, faces, members, radius, chunk, None, marked)
                      for p in zip(a.tolist(), b.tolist())]
             assert sorted(found) == expected
-            paths.add((bool(by_chunks), chunk < len(members)))
+            paths.add((any(by_chunks), chunk < len(members)))
     assert paths >= {(False, True), (True, True)}  # slabs and chunks, each with several parts
 
 
