@@ -37,10 +37,11 @@ import numpy as np
 
 from .errors import UrbanvoxError
 from .heap import reusing_freed_memory
+from .row_text import encoded_rows
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel, rank_in, unique_pairs
 
 MESH_FORMATS = (".obj", ".stl", ".ply", ".vtu", ".msh")
-#: Rows formatted at a time (one call of the ``%`` operator).
+#: Rows written at a time.
 _ROWS = 65536
 
 
@@ -119,11 +120,11 @@ def _grouped_surfaces(model: SurfaceModel, regions: list[int]) -> tuple[np.ndarr
 def _write_obj(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
     regions = _regions(model)
     faces, bounds = _grouped_surfaces(model, regions)
-    with open(path, "w", encoding="ascii") as out:
-        out.write("# urbanvox: one closed, outward surface per region\n")
+    with open(path, "wb") as out:  # ASCII text, written as bytes (core.row_text)
+        out.write(b"# urbanvox: one closed, outward surface per region\n")
         _write_rows(out, "v %.4f %.4f %.4f", world)
         for i, region in enumerate(regions):
-            out.write(f"g {region_name(region)}\n")
+            out.write(f"g {region_name(region)}\n".encode("ascii"))
             _write_rows(out, "f %d %d %d", faces[bounds[i]:bounds[i + 1]] + 1)
 
 
@@ -333,18 +334,18 @@ def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> N
         lines.append(f"{v} {_box(t.shell_box[v - 1])} 1 {physical} {len(tags)} " + " ".join(map(str, tags.tolist())))
     lines.append("$EndEntities")
     lines += ["$Nodes", f"1 {n_nodes} 1 {n_nodes}", f"2 1 0 {n_nodes}"]
-    with open(path, "w", encoding="ascii") as out:
-        out.write("\n".join(lines) + "\n")
+    with open(path, "wb") as out:  # ASCII text, written as bytes (core.row_text)
+        out.write(("\n".join(lines) + "\n").encode("ascii"))
         _write_rows(out, "%d", np.arange(1, n_nodes + 1)[:, None])
         _write_rows(out, "%.4f %.4f %.4f", world)
-        out.write("$EndNodes\n$Elements\n")
-        out.write(f"{n_patches} {n_faces} 1 {n_faces}\n")
+        out.write(b"$EndNodes\n$Elements\n")
+        out.write(f"{n_patches} {n_faces} 1 {n_faces}\n".encode("ascii"))
         row_format = " ".join(["%d"] * (t.faces.shape[1] + 1))
         for p in range(n_patches):
             members = t.face_order[t.patch_start[p]:t.patch_start[p + 1]]
-            out.write(f"2 {p + 1} 2 {len(members)}\n")
+            out.write(f"2 {p + 1} 2 {len(members)}\n".encode("ascii"))
             _write_rows(out, row_format, np.column_stack([members + 1, t.faces.take(members, axis=0) + 1]))
-        out.write("$EndElements\n")
+        out.write(b"$EndElements\n")
 
 
 def _write_msh_binary(path: Path, topology: _MshTopology, world: np.ndarray) -> None:
@@ -473,19 +474,18 @@ def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items
 
 
 def _write_rows(out, row_format: str, rows: np.ndarray) -> None:
-    """``np.savetxt(out, rows, fmt=row_format)``, a block of rows per format call
-    (the same text, several times faster than a call per row)."""
-    line = row_format + "\n"
-    for start in range(0, len(rows), _ROWS):
-        part = rows[start:start + _ROWS]
-        out.write(line * len(part) % tuple(part.ravel().tolist()))
+    """``np.savetxt(out, rows, fmt=row_format)`` into a binary file: the same
+    text, a block of rows at a time (:mod:`core.row_text`)."""
+    for text in encoded_rows(row_format, rows):
+        out.write(text)
 
 
 def _formatted(row_format: str, rows: np.ndarray) -> np.ndarray:
     """The text of every row (an object array of str), as :func:`_write_rows` writes it."""
     text = np.empty(len(rows), dtype=object)
-    line = row_format + "\n"
-    for start in range(0, len(rows), _ROWS):
-        part = rows[start:start + _ROWS]
-        text[start:start + len(part)] = (line * len(part) % tuple(part.ravel().tolist())).split("\n")[:-1]
+    start = 0
+    for block in encoded_rows(row_format, rows):
+        lines = block.decode("ascii").split("\n")[:-1]
+        text[start:start + len(lines)] = lines
+        start += len(lines)
     return text

@@ -36,6 +36,24 @@ def test_obj_has_one_closed_group_per_region(result, tmp_path):
     assert np.allclose(vertices, result.grid.to_world(result.mesh.nodes), atol=1e-4)
 
 
+def test_text_formats_are_the_percent_operators(result, tmp_path, monkeypatch):
+    """.obj and text .msh rows come from core.row_text: byte for byte the
+    text of Python's % operator, row by row."""
+    from core import export
+
+    written = {}
+    for name in ("a.obj", "a.msh"):
+        written[name] = result.write_mesh(tmp_path / name).read_bytes()
+
+    def operator_rows(out, row_format, rows):
+        out.write(((row_format + "\n") * len(rows) % tuple(rows.ravel().tolist())).encode("ascii"))
+
+    monkeypatch.setattr(export, "_write_rows", operator_rows)
+    for name in ("a.obj", "a.msh"):
+        by_operator = result.write_mesh(tmp_path / ("b" + name[1:])).read_bytes()
+        assert len(by_operator) > 10_000 and written[name] == by_operator, name
+
+
 def test_stl_solids_are_watertight_for_trimesh(result, tmp_path):
     trimesh = pytest.importorskip("trimesh")
     path = result.write_mesh(tmp_path / "city.stl")
