@@ -21,6 +21,7 @@ import numpy as np
 
 from .classify import AIR, GROUND
 from .grid import VoxelGrid
+from .topology import dense_unique
 
 #: Region ids of the non-building regions; blocks are 1..n.
 GROUND_REGION, AIR_REGION, OUTSIDE_REGION = -1, -2, -3
@@ -140,7 +141,7 @@ class SurfaceModel:
 
     def region_ids(self) -> np.ndarray:
         """Every region that has a face (blocks, ground, air, outside)."""
-        return np.unique(self.regions)
+        return dense_unique(self.regions)
 
     def faces_of(self, region: int) -> np.ndarray:
         """Indices of the quads that bound ``region``."""
@@ -235,6 +236,13 @@ def rank_in(values: np.ndarray, wanted: Sequence[int]) -> np.ndarray:
     values = np.asarray(values)
     if len(wanted) == 0:
         return np.full(values.shape, -1, dtype=np.int64)
+    low, high = int(wanted.min()), int(wanted.max())
+    if high - low < max(values.size, 1024):
+        # A table over the ids' range, -1 on either side of it: a lookup
+        # per value, not a binary search.
+        table = np.full(high - low + 3, -1, dtype=np.int64)
+        table[wanted - low + 1] = np.arange(len(wanted))
+        return table.take(np.clip(values.astype(np.int64) - (low - 1), 0, high - low + 2))
     order = np.argsort(wanted)
     ordered = wanted[order]
     at = np.minimum(np.searchsorted(ordered, values), len(wanted) - 1)
@@ -256,8 +264,8 @@ def unique_pairs(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         return pairs.reshape(0, 2), np.zeros(0, dtype=np.int64)
     low = pairs.min()
     span = int(pairs.max()) - int(low) + 1
-    keys, which = np.unique((pairs[:, 0] - low).astype(np.int64) * span + (pairs[:, 1] - low),
-                            return_inverse=True)
+    keys, which = dense_unique((pairs[:, 0] - low).astype(np.int64) * span + (pairs[:, 1] - low),
+                               return_inverse=True)
     return np.column_stack([keys // span, keys % span]) + low, which.ravel()
 
 

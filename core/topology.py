@@ -63,6 +63,36 @@ def sorted_unique(values: np.ndarray, return_inverse: bool = False):
     return ordered[first], inverse
 
 
+def dense_unique(values: np.ndarray, return_inverse: bool = False):
+    """``np.unique(values, return_inverse=...)`` of integers of a small range
+    (region ids, region pairs): a mark per value of the range and a running
+    count, in linear time, where the range is no larger than twice the
+    values (else ``np.unique``). The 9.7 M region ids of the 1 km city's
+    triangles: 0.41 s by a sort.
+
+    Examples
+    --------
+    >>> dense_unique(np.array([[3, -1], [3, 7]])).tolist()
+    [-1, 3, 7]
+    >>> [a.tolist() for a in dense_unique(np.array([5, -2, 5]), return_inverse=True)]
+    [[-2, 5], [1, 0, 1]]
+    """
+    flat = values.ravel()
+    if len(flat) == 0 or not np.issubdtype(flat.dtype, np.integer):
+        return np.unique(flat, return_inverse=return_inverse)
+    low, high = int(flat.min()), int(flat.max())
+    if high - low >= max(2 * len(flat), 1024):
+        return np.unique(flat, return_inverse=return_inverse)
+    offset = flat - low  # below 2 x len(flat): fits the values' type
+    present = np.zeros(high - low + 1, dtype=bool)
+    present[offset] = True
+    unique = (np.flatnonzero(present) + low).astype(flat.dtype)
+    if not return_inverse:
+        return unique
+    rank = np.cumsum(present, dtype=np.intp) - 1
+    return unique, rank[offset]
+
+
 def run_starts(values: np.ndarray) -> np.ndarray:
     """Where each run of equal values of a 1-D array starts: the first value,
     and every value unlike the one before it.

@@ -50,3 +50,24 @@ def test_sorted_unique_is_np_unique_on_ordered_and_shuffled_keys():
         keys = np.sort(rng.integers(0, n // 2 + 1, n)) + rng.integers(0, 3, n)  # nearly in order
         for values in (keys, rng.permutation(keys)):
             assert np.array_equal(sorted_unique(values), np.unique(values))
+
+
+def test_dense_unique_and_rank_in_are_the_sorting_ones():
+    # Region ids and region pairs (a small range) are counted, not sorted:
+    # the same values, inverse and ranks as np.unique and a binary search,
+    # on both sides of the range limit and in several integer types.
+    from core.surface import rank_in
+    from core.topology import dense_unique
+
+    rng = np.random.default_rng(5)
+    cases = [rng.integers(-2, 300, 5_000), rng.integers(-2, 300, (2_000, 2)).astype(np.int32),
+             rng.integers(-10**9, 10**9, 50), rng.integers(0, 3, 10).astype(np.int16), np.zeros(0, np.int64)]
+    for values in cases:
+        unique, inverse = np.unique(values, return_inverse=True)
+        got, got_inverse = dense_unique(values, return_inverse=True)
+        assert got.dtype == unique.dtype and np.array_equal(got, unique)
+        assert np.array_equal(got_inverse, inverse) and np.array_equal(dense_unique(values), unique)
+        wanted = rng.permutation(unique)[: len(unique) // 2 + 1]
+        position = {v: i for i, v in enumerate(wanted.tolist())}
+        expected = np.array([position.get(v, -1) for v in values.ravel().tolist()]).reshape(values.shape)
+        assert np.array_equal(rank_in(values, wanted), expected)
