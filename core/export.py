@@ -276,14 +276,17 @@ def _msh_topology(model: SurfaceModel, world: np.ndarray, triangles: SurfaceMode
     order = np.argsort(patch, kind="stable")
     bounds = np.searchsorted(patch[order], np.arange(n_patches + 1))
     # One coordinate at a time: (F,) gathers of the corners, where (F, 3)
-    # tables of them took a gigabyte on a city.
+    # tables of them took a gigabyte on a city. The corners' node numbers,
+    # in patch order, are gathered once for the three coordinates.
     patch_lower = np.empty((n_patches, 3))
     patch_upper = np.empty((n_patches, 3))
+    corner_nodes = [faces[:, c].astype(index).take(order) for c in range(k)]
     for axis in range(3):
-        corners = [world[faces[order, c], axis] for c in range(k)]
+        coordinate = np.ascontiguousarray(world[:, axis])
+        corners = [coordinate.take(nodes) for nodes in corner_nodes]
         patch_lower[:, axis] = np.minimum.reduceat(functools.reduce(np.minimum, corners), bounds[:-1])
         patch_upper[:, axis] = np.maximum.reduceat(functools.reduce(np.maximum, corners), bounds[:-1])
-    del corners
+    del corners, corner_nodes
     shell_start = np.searchsorted(shell_of, np.arange(len(bounding)))
     shell_lower = np.minimum.reduceat(patch_lower[patch_of], shell_start)
     shell_upper = np.maximum.reduceat(patch_upper[patch_of], shell_start)
