@@ -47,12 +47,15 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     # its depth component says whether it is turned to the viewer.
     rotation = np.column_stack([right, up, eye])
     view_nodes = model.nodes @ rotation
-    x, y = view_nodes[:, 0], view_nodes[:, 1]
-    a, b, c = faces.T
-    towards_eye = (x[b] - x[a]) * (y[c] - y[a]) - (y[b] - y[a]) * (x[c] - x[a])
+    # Each corner's coordinates gathered once, from contiguous columns.
+    x, y = np.ascontiguousarray(view_nodes[:, 0]), np.ascontiguousarray(view_nodes[:, 1])
+    a, b, c = (np.ascontiguousarray(corner) for corner in faces.T)
+    xa, ya = x.take(a), y.take(a)
+    towards_eye = (x.take(b) - xa) * (y.take(c) - ya) - (y.take(b) - ya) * (x.take(c) - xa)
+    del xa, ya
     # Only the faces turned to the viewer are coloured and drawn.
     facing = np.flatnonzero(towards_eye > 0)
-    view = view_nodes[faces[facing]]
+    view = view_nodes.take(faces.take(facing, axis=0), axis=0)  # faster than indexing (core.vectors)
     e1, e2 = view[:, 1] - view[:, 0], view[:, 2] - view[:, 0]
     normal = np.column_stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1], e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
                               towards_eye[facing]])
@@ -119,7 +122,8 @@ def _rasterised(view: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, tupl
     scale = (_PIXELS - 1) / max(float(upper[0] - lower[0]), 1e-12)
     width, height = _PIXELS, int(np.floor((upper[1] - lower[1]) * scale)) + 1
     pixel = view.copy()
-    pixel[..., :2] = (view[..., :2] - lower) * scale
+    for axis in range(2):  # a coordinate at a time: (T, 3) strided views, not (T, 3, 2)
+        pixel[..., axis] = (view[..., axis] - lower[axis]) * scale
     # Samples in proportion to each triangle's area on the picture (its
     # centroid for one within a pixel), spread by the R2 low-discrepancy
     # sequence folded into the triangle.
@@ -133,12 +137,16 @@ def _rasterised(view: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, tupl
     u[fold], v[fold] = 1.0 - u[fold], 1.0 - v[fold]
     single = count[owner] == 1
     u[single] = v[single] = 1.0 / 3.0
-    sample = pixel[owner, 0] + u[:, None] * edge1[owner] + v[:, None] * edge2[owner]
-    column = np.clip(np.rint(sample[:, 0]), 0, width - 1).astype(np.int64)
-    row = np.clip(np.rint(sample[:, 1]), 0, height - 1).astype(np.int64)
+    # One coordinate at a time, gathered from contiguous columns: numpy's
+    # row gathers of (T, 3) tables by ten million samples are slow (core.vectors).
+    sample = [np.ascontiguousarray(pixel[:, 0, c]).take(owner)
+              + u * np.ascontiguousarray(edge1[:, c]).take(owner)
+              + v * np.ascontiguousarray(edge2[:, c]).take(owner) for c in range(3)]
+    column = np.clip(np.rint(sample[0]), 0, width - 1).astype(np.int64)
+    row = np.clip(np.rint(sample[1]), 0, height - 1).astype(np.int64)
     # Depth buffer: the nearest sample of every pixel, from one sort of the
     # pixel and the (31-bit) distance behind the nearest sample.
-    depth = sample[:, 2]
+    depth = sample[2]
     behind = (depth.max() - depth) / max(float(np.ptp(depth)), 1e-300) * (2**31 - 1)
     key = (row * width + column) << 31 | behind.astype(np.int64)
     order = np.argsort(key)
