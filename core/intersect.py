@@ -142,15 +142,16 @@ def _balls(nodes: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray
     reach = np.empty(len(faces))
 
     def fill(rows: slice) -> None:
-        corner = faces[rows]
-        # take and compress: row gathers faster than indexing (core.vectors).
-        total = nodes.take(corner[:, 0], axis=0)
-        for k in range(1, corner.shape[1]):
-            total += nodes.take(corner[:, k], axis=0)
-        centre[rows] = middle = total / corner.shape[1]
-        squared = np.zeros(len(corner))
-        for k in range(corner.shape[1]):
-            d = nodes.take(corner[:, k], axis=0) - middle
+        # Each corner gathered once, for the centre and the reach (take: row
+        # gathers faster than indexing, core.vectors).
+        corners = [nodes.take(column, axis=0) for column in faces[rows].T]
+        total = corners[0].copy()
+        for corner in corners[1:]:
+            total += corner
+        centre[rows] = middle = total / len(corners)
+        squared = np.zeros(len(total))
+        for corner in corners:
+            d = corner - middle
             squared = np.maximum(squared, d[:, 0] ** 2 + d[:, 1] ** 2 + d[:, 2] ** 2)
         reach[rows] = np.sqrt(squared)
 
@@ -170,11 +171,18 @@ def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndar
     radius = max(float(radius), 1e-300)
     # One column at a time: numpy's reductions along axis 0 of an (M, 3)
     # table stride through it (0.25 s on 4.8 M centres, 0.03 s so).
-    # +1: room for the -1 neighbours.
-    cell = [np.floor((centre[:, c] - centre[:, c].min()) / radius).astype(np.int64) + 1 for c in range(3)]
-    dims = np.array([column.max() for column in cell]) + 2
-    key = cell[0] + dims[0] * (cell[1] + dims[1] * cell[2])
-    del cell
+    lowest = [centre[:, c].min() for c in range(3)]
+    # The largest cell is that of the largest centre (the rounding is monotone);
+    # +1 and +2: room for the -1 and +1 neighbours.
+    dims = np.array([int(np.floor((centre[:, c].max() - lowest[c]) / radius)) + 3 for c in range(3)])
+    key = np.empty(len(centre), dtype=np.int64)
+
+    def fill(rows: slice) -> None:
+        # Blocks of rows on all cores, their temporaries in the cache.
+        cell = [np.floor((centre[rows, c] - lowest[c]) / radius).astype(np.int64) + 1 for c in range(3)]
+        key[rows] = cell[0] + dims[0] * (cell[1] + dims[1] * cell[2])
+
+    map_blocks(fill, row_blocks(len(centre), _ROWS))
     if np.prod(dims.astype(np.float64)) <= 4 * len(centre):
         # A table of the cells (no larger than a few arrays of the faces),
         # the seeds' ones dilated by one: a lookup per face instead of a sort
