@@ -261,51 +261,71 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     global_id = np.empty(len(order), dtype=np.int32)
     global_id[order] = np.arange(1, len(order) + 1, dtype=np.int32)
 
-    keys, moved, first_rank, regions, columns = [], [], [], [], []
+    regions, columns = [], []
     n_blocks = 0
-    for rank, p in enumerate(pieces):
+    for p in pieces:
         renumber = np.concatenate([[0], global_id[n_blocks:n_blocks + len(p.blocks)]]).astype(np.int32)
         r = p.regions.copy()
         r[r > 0] = renumber[r[r > 0]]
         regions.append(r)
-        keys.append(p.keys)
-        moved.append(p.moved)
-        # Nodes of owned blocks first, then by tile: a block's nodes come from its tile.
-        first_rank.append(np.where(p.priority, rank, rank + len(pieces)))
         c = p.footprint_columns.copy()
         c[:, 0] = renumber[c[:, 0]]
         columns.append(c)
         n_blocks += len(p.blocks)
-    keys = np.concatenate(keys)
-    rank = np.concatenate(first_rank)
-    nx1, ny1 = domain.shape[0] + 1, domain.shape[1] + 1
-    flat = keys[:, 0].astype(np.int64) + nx1 * (keys[:, 1] + ny1 * keys[:, 2].astype(np.int64))
-    # Sorted by node, then rank: one sort of a combined key (unique, a node
-    # has one copy per tile), not numpy's two-pass lexsort. Each piece's
-    # nodes come in lattice order: timsort (the stable sort) merges those
-    # runs, and the keys being unique, it gives quicksort's order.
-    if int(flat.max()) < np.iinfo(np.int64).max // (2 * len(pieces)):
-        by_rank = np.argsort(flat * (2 * len(pieces)) + rank, kind="stable")
-    else:  # pragma: no cover - lattices of more than 4e18 / tiles nodes
-        by_rank = np.lexsort((rank, flat))
-    flat = flat[by_rank]
-    first = run_starts(flat)  # a node's best-ranked copy
-    del flat
+    # Every copy of a node (one per tile that has it) gets a key: the node's
+    # lattice number, then its rank, the tile's place in the list, owned
+    # blocks' nodes first, so that a block's nodes come from its tile. Made
+    # piece by piece: the 2 km city's 16 pieces hold 25 M copies, and tables
+    # of them all (keys, ranks, moved positions) cost gigabytes of fresh
+    # memory.
+    nx1, ny1, nz1 = (size + 1 for size in domain.shape)
+    ranks = 2 * len(pieces)
+    start = np.cumsum([0] + [len(p.keys) for p in pieces])
+    copy_key = np.empty(int(start[-1]), dtype=np.int64)
+    if nx1 * ny1 * nz1 * ranks >= np.iinfo(np.int64).max:  # pragma: no cover - 4e18 / tiles lattice nodes
+        raise UrbanvoxError("The domain has too many lattice nodes for its tiles; use larger tiles.")
+    for rank, p in enumerate(pieces):
+        flat = p.keys[:, 0].astype(np.int64) + nx1 * (p.keys[:, 1] + ny1 * p.keys[:, 2].astype(np.int64))
+        copy_key[start[rank]:start[rank + 1]] = flat * ranks + np.where(p.priority, rank, rank + len(pieces))
+    # Sorted by node, then rank: each piece's nodes come in lattice order, so
+    # timsort (the stable sort) merges those runs; the keys are unique, so it
+    # gives any sort's order.
+    by_rank = np.argsort(copy_key, kind="stable")
+    node_key = copy_key.take(by_rank) // ranks
+    del copy_key
+    first = run_starts(node_key)  # a node's best-ranked copy
+    del node_key
     chosen = by_rank[first]
     node_of = np.empty(len(by_rank), dtype=np.int64)
     node_of[by_rank] = np.cumsum(first) - 1
     del by_rank, first
-    # take: row gathers faster than indexing (core.vectors).
-    nodes = keys.take(chosen, axis=0).astype(np.float64) * h
-    final = np.concatenate(moved).take(chosen, axis=0)
+    # Each node's lattice position and moved position from its chosen copy,
+    # gathered piece by piece (take: row gathers faster than indexing, core.vectors).
+    piece_of = np.searchsorted(start, chosen, side="right") - 1
+    if len(pieces) <= np.iinfo(np.int16).max:
+        piece_of = piece_of.astype(np.int16)  # numpy's stable sort of 16-bit keys is a radix sort
+    by_piece = np.argsort(piece_of, kind="stable")
+    bounds = np.searchsorted(piece_of.take(by_piece), np.arange(len(pieces) + 1))
+    del piece_of
+    lattice = np.empty((len(chosen), 3), dtype=pieces[0].keys.dtype)
+    final = np.empty((len(chosen), 3), dtype=np.float64)
+    for rank, p in enumerate(pieces):
+        nodes_here = by_piece[bounds[rank]:bounds[rank + 1]]
+        copies = chosen.take(nodes_here) - start[rank]
+        lattice[nodes_here] = p.keys.take(copies, axis=0)
+        final[nodes_here] = p.moved.take(copies, axis=0)
+    del by_piece, chosen
+    nodes = lattice.astype(np.float64)
+    del lattice
+    nodes *= h
     # Each piece's quads through its own stretch of node_of: no int64 copy of
     # them all to concatenate first.
     all_quads = np.empty((sum(len(p.quads) for p in pieces), 4), dtype=np.int64)
-    start = stop = 0
-    for p in pieces:
+    stop = 0
+    for rank, p in enumerate(pieces):
         rows = slice(stop, stop + len(p.quads))
-        all_quads[rows] = node_of[start:start + len(p.keys)][p.quads]
-        start, stop = start + len(p.keys), rows.stop
+        all_quads[rows] = node_of[start[rank]:start[rank + 1]][p.quads]
+        stop = rows.stop
     del node_of
     all_regions = np.concatenate(regions)
     surface = SurfaceModel(nodes, all_quads, all_regions)
