@@ -517,7 +517,7 @@ class _Cropper:
         for points, order, i, j in self.sets:
             a, b = np.searchsorted(i, [i0, i1])
             inside = (j[a:b] >= j0) & (j[a:b] < j1)
-            out.append(points[order[a:b][inside]])
+            out.append(points.take(order[a:b].compress(inside), axis=0))  # take: faster rows (core.vectors)
         return out[0], out[1]
 
 
