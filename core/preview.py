@@ -17,6 +17,7 @@ import numpy as np
 from .heap import reusing_freed_memory
 from .surface import AIR_REGION, GROUND_REGION, SurfaceModel, rank_in
 from .topology import run_starts
+from .vectors import Vector, minus
 
 #: Viewer direction (from the scene towards the eye): south-west, 35 degrees up.
 _AZIMUTH, _ELEVATION = np.radians(-120.0), np.radians(35.0)
@@ -53,12 +54,16 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     xa, ya = x.take(a), y.take(a)
     towards_eye = (x.take(b) - xa) * (y.take(c) - ya) - (y.take(b) - ya) * (x.take(c) - xa)
     del xa, ya
-    # Only the faces turned to the viewer are coloured and drawn.
+    # Only the faces turned to the viewer are coloured and drawn. Their
+    # corners one coordinate at a time (three (T,) arrays each, gathered from
+    # contiguous columns): (T, 3, 3) tables of them and their gathers took
+    # seconds on a city.
     facing = np.flatnonzero(towards_eye > 0)
-    view = view_nodes.take(faces.take(facing, axis=0), axis=0)  # faster than indexing (core.vectors)
-    e1, e2 = view[:, 1] - view[:, 0], view[:, 2] - view[:, 0]
-    normal = np.column_stack([e1[:, 1] * e2[:, 2] - e1[:, 2] * e2[:, 1], e1[:, 2] * e2[:, 0] - e1[:, 0] * e2[:, 2],
-                              towards_eye[facing]])
+    columns = [x, y, np.ascontiguousarray(view_nodes[:, 2])]
+    corners = [[column.take(corner.take(facing)) for column in columns] for corner in (a, b, c)]
+    del x, y, columns
+    e1, e2 = minus(corners[1], corners[0]), minus(corners[2], corners[0])
+    normal = np.column_stack([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], towards_eye[facing]])
     del e1, e2
     on_block = facing < len(block_tri)
     owner = owner[facing[on_block]]
@@ -71,7 +76,7 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     length = np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
     light = np.array([0.3, 0.5, 0.8]) @ rotation
     colours[:, :3] *= (0.55 + 0.45 * np.clip((normal @ light) / length, 0, 1))[:, None]
-    image, extent = _rasterised(view, colours)
+    image, extent = _rasterised(corners, colours)
     ax.imshow(image, origin="lower", extent=extent, interpolation="nearest")
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
@@ -97,9 +102,10 @@ def _triangles(faces: np.ndarray, owner: np.ndarray | None = None) -> tuple[np.n
             None if owner is None else np.concatenate([owner, owner]))
 
 
-def _rasterised(view: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float, float]]:
-    """RGBA picture of triangles given in view coordinates (T, 3, 3): x, y and
-    depth (larger is nearer), and its extent (x0, x1, y0, y1).
+def _rasterised(corners: list[Vector], colours: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+    """RGBA picture of triangles given in view coordinates, and its extent
+    (x0, x1, y0, y1). ``corners`` are the triangles' three corners, each a
+    :mod:`core.vectors` vector of (T,) arrays: x, y and depth (larger is nearer).
 
     Examples
     --------
@@ -107,41 +113,38 @@ def _rasterised(view: np.ndarray, colours: np.ndarray) -> tuple[np.ndarray, tupl
 
     >>> square = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
     >>> near = square + [0.25, 0.25, 1.0]
+    >>> view = np.concatenate([square, near])
     >>> rgba = np.array([[0, 0, 1, 1], [0, 0, 1, 1], [1, 0, 0, 1], [1, 0, 0, 1]], float)
-    >>> image, extent = _rasterised(np.concatenate([square, near]), rgba)
+    >>> image, extent = _rasterised([[view[:, k, c] for c in range(3)] for k in range(3)], rgba)
     >>> image.shape[1], extent
     (770, (0.0, 1.25, 0.0, 1.25))
     >>> image[-5, -5].tolist(), image[5, 5].tolist(), image[-5, 5].tolist()
     ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.0])
     """
-    if len(view) == 0:
+    if len(colours) == 0:
         return np.zeros((1, 1, 4)), (0.0, 1.0, 0.0, 1.0)
-    # One coordinate at a time (a reduction over two axes of a strided view is slow).
-    lower = np.array([view[:, :, 0].min(), view[:, :, 1].min()])
-    upper = np.array([view[:, :, 0].max(), view[:, :, 1].max()])
+    lower = np.array([min(corner[axis].min() for corner in corners) for axis in range(2)])
+    upper = np.array([max(corner[axis].max() for corner in corners) for axis in range(2)])
     scale = (_PIXELS - 1) / max(float(upper[0] - lower[0]), 1e-12)
     width, height = _PIXELS, int(np.floor((upper[1] - lower[1]) * scale)) + 1
-    pixel = view.copy()
-    for axis in range(2):  # a coordinate at a time: (T, 3) strided views, not (T, 3, 2)
-        pixel[..., axis] = (view[..., axis] - lower[axis]) * scale
+    # Pixel coordinates (depth kept) of the first corner and the two edges from it.
+    pixel = [[(corner[axis] - lower[axis]) * scale for axis in range(2)] + [corner[2]] for corner in corners]
+    origin, edge1, edge2 = pixel[0], minus(pixel[1], pixel[0]), minus(pixel[2], pixel[0])
+    del pixel
     # Samples in proportion to each triangle's area on the picture (its
     # centroid for one within a pixel), spread by the R2 low-discrepancy
     # sequence folded into the triangle.
-    edge1, edge2 = pixel[:, 1] - pixel[:, 0], pixel[:, 2] - pixel[:, 0]
-    area = 0.5 * np.abs(edge1[:, 0] * edge2[:, 1] - edge1[:, 1] * edge2[:, 0])
+    area = 0.5 * np.abs(edge1[0] * edge2[1] - edge1[1] * edge2[0])
     count = np.maximum(1, np.ceil(area * _SAMPLES_PER_PIXEL)).astype(np.int64)
-    owner = np.repeat(np.arange(len(pixel)), count)
+    owner = np.repeat(np.arange(len(count)), count)
     j = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
     u, v = (0.5 + j * 0.7548776662466927) % 1.0, (0.5 + j * 0.5698402909980532) % 1.0
     fold = u + v > 1.0
     u[fold], v[fold] = 1.0 - u[fold], 1.0 - v[fold]
     single = count[owner] == 1
     u[single] = v[single] = 1.0 / 3.0
-    # One coordinate at a time, gathered from contiguous columns: numpy's
-    # row gathers of (T, 3) tables by ten million samples are slow (core.vectors).
-    sample = [np.ascontiguousarray(pixel[:, 0, c]).take(owner)
-              + u * np.ascontiguousarray(edge1[:, c]).take(owner)
-              + v * np.ascontiguousarray(edge2[:, c]).take(owner) for c in range(3)]
+    sample = [origin[axis].take(owner) + u * edge1[axis].take(owner) + v * edge2[axis].take(owner)
+              for axis in range(3)]
     column = np.clip(np.rint(sample[0]), 0, width - 1).astype(np.int64)
     row = np.clip(np.rint(sample[1]), 0, height - 1).astype(np.int64)
     # Depth buffer: the nearest sample of every pixel, from one sort of the
