@@ -17,45 +17,52 @@ _Z = 0x80000000
 _POLYGON, _MULTIPOLYGON = 3, 6
 
 
-def multipolygons_z(rings: np.ndarray, group: np.ndarray, n_groups: int) -> list[bytes]:
-    """WKB of ``n_groups`` MultiPolygonZ, group ``g`` made of the rings ``group == g``.
+def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_groups: int) -> list[bytes]:
+    """WKB of ``n_groups`` MultiPolygonZ, group ``g`` made of the faces ``group == g``.
 
     Parameters
     ----------
-    rings : ndarray of float (F, K, 3)
-        Closed rings (last corner = first), one single-ring polygon each.
+    nodes : ndarray of float (N, 3)
+    faces : ndarray of int (F, K)
+        One single-ring polygon each: its corners, then the first again.
     group : ndarray of int (F,)
-        The multipolygon of each ring, ascending.
+        The multipolygon of each face, ascending.
     n_groups : int
 
     Returns
     -------
     list of bytes
-        One WKB per group, its polygons in the order of ``rings``.
+        One WKB per group, its polygons in the order of ``faces``.
 
     Examples
     --------
     >>> import shapely
-    >>> ring = np.array([[[0, 0, 1], [1, 0, 1], [0, 1, 1], [0, 0, 1.0]]])
-    >>> wkb = multipolygons_z(np.concatenate([ring, ring + 2]), np.array([0, 0]), 1)
-    >>> wkb[0] == shapely.to_wkb(shapely.multipolygons(shapely.polygons(np.concatenate([ring, ring + 2]))),
-    ...                          output_dimension=3)
+    >>> nodes = np.array([[0, 0, 1], [1, 0, 1], [0, 1, 1], [2, 2, 3.0]])
+    >>> faces = np.array([[0, 1, 2], [1, 3, 2]])
+    >>> rings = nodes[np.concatenate([faces, faces[:, :1]], axis=1)]
+    >>> wkb = multipolygons_z(nodes, faces, np.array([0, 0]), 1)
+    >>> wkb[0] == shapely.to_wkb(shapely.multipolygons(shapely.polygons(rings)), output_dimension=3)
     True
     """
-    n, k = rings.shape[:2]
+    n, k = faces.shape
     polygon = np.dtype([("order", "u1"), ("type", "<u4"), ("rings", "<u4"), ("points", "<u4"),
-                        ("xyz", "<f8", (k, 3))])
+                        ("xyz", "<f8", (k + 1, 3))])
     records = np.empty(n, dtype=polygon)
     records["order"] = _LITTLE_ENDIAN
     records["type"] = _Z | _POLYGON
     records["rings"] = 1
-    records["points"] = k
-    records["xyz"] = rings
-    body = records.tobytes()
+    records["points"] = k + 1
+    # Each corner straight into the records (no (F, K + 1, 3) table of the
+    # closed rings: hundreds of MB for a city's blocks).
+    xyz = records["xyz"]
+    for corner in range(k):
+        xyz[:, corner] = nodes.take(faces[:, corner], axis=0)  # take: faster rows (core.vectors)
+    xyz[:, k] = xyz[:, 0]
+    del xyz
     bounds = np.searchsorted(group, np.arange(n_groups + 1))
     header = np.dtype([("order", "u1"), ("type", "<u4"), ("count", "<u4")])
     out = []
     for g in range(n_groups):
         head = np.array([(_LITTLE_ENDIAN, _Z | _MULTIPOLYGON, bounds[g + 1] - bounds[g])], dtype=header)
-        out.append(head.tobytes() + body[bounds[g] * polygon.itemsize:bounds[g + 1] * polygon.itemsize])
+        out.append(head.tobytes() + records[bounds[g]:bounds[g + 1]].tobytes())
     return out
