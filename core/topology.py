@@ -83,7 +83,7 @@ def dense_unique(values: np.ndarray, return_inverse: bool = False):
     low, high = int(flat.min()), int(flat.max())
     if high - low >= max(2 * len(flat), 1024):
         return np.unique(flat, return_inverse=return_inverse)
-    offset = flat - low  # below 2 x len(flat): fits the values' type
+    offset = flat.astype(np.intp, copy=False) - low  # in intp: small types would overflow
     present = np.zeros(high - low + 1, dtype=bool)
     present[offset] = True
     unique = (np.flatnonzero(present) + low).astype(flat.dtype)

@@ -61,7 +61,8 @@ def test_dense_unique_and_rank_in_are_the_sorting_ones():
 
     rng = np.random.default_rng(5)
     cases = [rng.integers(-2, 300, 5_000), rng.integers(-2, 300, (2_000, 2)).astype(np.int32),
-             rng.integers(-10**9, 10**9, 50), rng.integers(0, 3, 10).astype(np.int16), np.zeros(0, np.int64)]
+             rng.integers(-10**9, 10**9, 50), rng.integers(0, 3, 10).astype(np.int16), np.zeros(0, np.int64),
+             rng.integers(-100, 101, 300).astype(np.int8)]  # its range overflows int8
     for values in cases:
         unique, inverse = np.unique(values, return_inverse=True)
         got, got_inverse = dense_unique(values, return_inverse=True)
