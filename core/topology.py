@@ -78,7 +78,8 @@ def dense_unique(values: np.ndarray, return_inverse: bool = False):
     [[-2, 5], [1, 0, 1]]
     """
     flat = values.ravel()
-    if len(flat) == 0 or not np.issubdtype(flat.dtype, np.integer):
+    # Integers that intp holds (not uint64) only.
+    if len(flat) == 0 or flat.dtype.kind not in "iu" or flat.dtype == np.uint64:
         return np.unique(flat, return_inverse=return_inverse)
     low, high = int(flat.min()), int(flat.max())
     if high - low >= max(2 * len(flat), 1024):
