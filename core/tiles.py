@@ -234,6 +234,15 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
         footprint_columns=columns, warnings=list(result.warnings), timings=dict(result.timings))
 
 
+def _check_copy_keys(domain: GridWindow, n_tiles: int) -> None:
+    """The merge's keys (lattice node number x 2 tiles + rank) must fit 64 bits."""
+    nx1, ny1, nz1 = (size + 1 for size in domain.shape)
+    if nx1 * ny1 * nz1 * 2 * n_tiles >= np.iinfo(np.int64).max:
+        raise UrbanvoxError(
+            f"The domain's {nx1 * ny1 * nz1:.3g} lattice nodes in {n_tiles} tiles are more than the merge "
+            "can number: use larger tiles or voxels, or a smaller extent.")
+
+
 def _per_block(ids: np.ndarray, values: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Smallest and largest ``values`` of each block (or group) ``1..n`` (ids ``ids``)."""
     lo = np.full(n + 1, np.iinfo(np.int64).max)
@@ -275,15 +284,14 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     # Every copy of a node (one per tile that has it) gets a key: the node's
     # lattice number, then its rank, the tile's place in the list, owned
     # blocks' nodes first, so that a block's nodes come from its tile. Made
-    # piece by piece: the 2 km city's 16 pieces hold 25 M copies, and tables
-    # of them all (keys, ranks, moved positions) cost gigabytes of fresh
-    # memory.
-    nx1, ny1, nz1 = (size + 1 for size in domain.shape)
+    # piece by piece: the 2 km city's 25 pieces hold 19 M nodes, and tables
+    # of all their copies (keys, ranks, moved positions) cost gigabytes of
+    # fresh memory.
+    _check_copy_keys(domain, len(pieces))
+    nx1, ny1, _ = (size + 1 for size in domain.shape)
     ranks = 2 * len(pieces)
     start = np.cumsum([0] + [len(p.keys) for p in pieces])
     copy_key = np.empty(int(start[-1]), dtype=np.int64)
-    if nx1 * ny1 * nz1 * ranks >= np.iinfo(np.int64).max:  # pragma: no cover - 4e18 / tiles lattice nodes
-        raise UrbanvoxError("The domain has too many lattice nodes for its tiles; use larger tiles.")
     for rank, p in enumerate(pieces):
         flat = p.keys[:, 0].astype(np.int64) + nx1 * (p.keys[:, 1] + ny1 * p.keys[:, 2].astype(np.int64))
         copy_key[start[rank]:start[rank + 1]] = flat * ranks + np.where(p.priority, rank, rank + len(pieces))
@@ -354,6 +362,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     h = params.voxel_size / m
     tile, halo = options.columns(params.voxel_size)
     cores = plan_tiles(domain.shape, tile)
+    _check_copy_keys(domain, len(cores))  # before the tiles run, not at their merge
     crop = _Cropper(ground, building, domain, h)
     nx, ny, _ = domain.shape
     workers = max(1, int(options.workers or 1)) if not options.scheduler else None
