@@ -51,6 +51,7 @@ from .reconstruction import Reconstruction
 from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
 from .tiles import TileOptions, reconstruct_tiled
+from .vectors import finite_rows
 
 Progress = Callable[[float, str], None]
 CancelCheck = Callable[[], bool]
@@ -433,8 +434,7 @@ def _inside(points: np.ndarray, extent) -> np.ndarray:
 
 def _finite(points: np.ndarray, what: str, warnings: list[str]) -> np.ndarray:
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    # One column at a time: numpy's all() over rows of three is slow.
-    ok = np.isfinite(points[:, 0]) & np.isfinite(points[:, 1]) & np.isfinite(points[:, 2])
+    ok = finite_rows(points)
     if not ok.all():
         warnings.append(f"Ignored {int((~ok).sum())} {what} points with non-finite coordinates.")
         points = points.compress(ok, axis=0)

@@ -77,3 +77,16 @@ def length(v: Vector) -> np.ndarray:
 def minus(u: Vector, v: Vector) -> Vector:
     """Difference ``u - v``."""
     return [u[c] - v[c] for c in range(3)]
+
+
+def finite_rows(table: np.ndarray) -> np.ndarray:
+    """Whether every coordinate of each row of an (N, 3) table is finite, as
+    ``np.isfinite(table).all(axis=1)``, one column at a time (numpy's
+    ``all`` along rows of three is slow on millions of points).
+
+    Examples
+    --------
+    >>> finite_rows(np.array([[0.0, 1, 2], [0, np.nan, 2]])).tolist()
+    [True, False]
+    """
+    return np.isfinite(table[:, 0]) & np.isfinite(table[:, 1]) & np.isfinite(table[:, 2])

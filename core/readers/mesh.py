@@ -34,6 +34,7 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import Cancelled, UrbanvoxError
 from ..topology import run_starts
+from ..vectors import finite_rows
 
 __all__ = ["MESH_SUFFIXES", "Triangles", "read_triangles", "base_points", "edge_counts"]
 
@@ -168,7 +169,7 @@ def read_triangles(path: "str | os.PathLike[str]", is_cancelled: Optional[Callab
     bad_index = (faces < 0).any(axis=1) | (faces >= len(vertices)).any(axis=1)
     faces = faces[~bad_index]
     # A triangle with a NaN/inf corner has no usable surface.
-    bad_vertex = ~np.isfinite(vertices).all(axis=1)
+    bad_vertex = ~finite_rows(vertices)
     bad_face = bad_vertex[faces].any(axis=1)
     n_nonfinite = int(bad_face.sum()) + int(bad_index.sum())
     faces = faces[~bad_face]
