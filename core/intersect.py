@@ -17,6 +17,10 @@ triangles, and a quad's ball, which holds both its triangles, is smaller
 than a triangle's own); only the quads met are split. Then the triangles
 must share no node, and their bounding boxes must overlap. Narrow phase: an edge of one triangle crossing the other
 (Moller-Trumbore on segments), both ways; coplanar touching is not reported.
+
+With numba (:mod:`core.jit`), both phases run compiled in one pass over the
+seeds (:mod:`core.crossing_kernel`), with the same crossings; the numpy code
+here runs without it and stays the reference the tests compare it with.
 """
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ from typing import Callable
 import numpy as np
 from scipy import ndimage
 
+from . import jit
 from .errors import Cancelled
 from .neighbours import search_tree
 from .parallel import map_blocks, row_blocks, thread_count
@@ -459,6 +464,12 @@ def _crossing_quads(positions: np.ndarray, quads: np.ndarray, diagonal: np.ndarr
                + positions.take(tri[:, 2], axis=0)) / 3
         in_focus &= np.all((mid >= near[0]) & (mid <= near[1]), axis=1)
     rows = _pair_rows(positions, tri)
+    compiled = jit.kernels("crossing_kernel")
+    if compiled is not None:
+        # One compiled pass over the seeds, the same crossings (core.crossing_kernel).
+        pairs = compiled.crossing_triangles(centre.take(sub, axis=0), reach.take(sub), np.searchsorted(sub, seeds),
+                                            tri, positions, rows, in_focus, is_cancelled)
+        return tri.take(pairs, axis=0)
     found = [np.zeros((0, 2), dtype=np.int64)]
     for qa, qb in _close_pairs(centre, reach, sub, np.searchsorted(sub, seeds), chunk, is_cancelled):
 

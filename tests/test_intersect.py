@@ -1,5 +1,6 @@
 """Self-intersection control of projected surfaces (core.intersect)."""
 import numpy as np
+import pytest
 
 from core.intersect import undo_crossings
 
@@ -117,8 +118,11 @@ def stacked_grids(n=8, gap=0.3, layers=3):
     return nodes, quads
 
 
-def test_undo_crossings_matches_the_brute_force_reference():
-    # Three close layers shaken hard: 50 to 80 moves undone, in up to three rounds.
+@pytest.mark.parametrize("compiled", ["1", "0"])
+def test_undo_crossings_matches_the_brute_force_reference(monkeypatch, compiled):
+    # Three close layers shaken hard: 50 to 80 moves undone, in up to three
+    # rounds; with the compiled crossing search (core.crossing_kernel) and without.
+    monkeypatch.setenv("URBANVOX_JIT", compiled)
     old, quads = stacked_grids()
     for seed in range(6):
         rng = np.random.default_rng(seed)

@@ -54,8 +54,8 @@ BLOCK_FIELDS = (
 #: Python packages every algorithm needs; subclasses add their readers'.
 BASE_MODULES = ("numpy", "scipy", "pyproj", "shapely")
 
-#: What a user installs into QGIS's Python to get all of them.
-PIP_PACKAGES = ('"laspy[lazrs]"', "trimesh", "shapely", "pyproj", "scipy")
+#: What a user installs into QGIS's Python to get all of them (numba: optional, faster).
+PIP_PACKAGES = ('"laspy[lazrs]"', "trimesh", "shapely", "pyproj", "scipy", "numba")
 
 #: Share of the progress bar (%) for the method; writing the outputs has the rest.
 _RECONSTRUCTION_PERCENT = 80.0

@@ -1,0 +1,113 @@
+"""The compiled crossing search (core.crossing_kernel) against the numpy code
+it stands in for (core.intersect): the same crossings, bit for bit."""
+import numpy as np
+import pytest
+
+from core import jit
+from core.intersect import _balls, _crossing_quads, _pair_rows
+from test_intersect import _reference_edges_cross
+
+
+@pytest.fixture
+def kernel():
+    module = jit.kernels("crossing_kernel")
+    # numba is in requirements.txt: the suite must run the kernel, not skip it.
+    assert module is not None, "numba did not import: pip install -c constraints.txt -r requirements.txt"
+    return module
+
+
+def test_switched_off_by_the_environment(monkeypatch, kernel):
+    monkeypatch.setenv("URBANVOX_JIT", "0")
+    assert jit.kernels("crossing_kernel") is None
+    monkeypatch.setenv("URBANVOX_JIT", "1")
+    assert jit.kernels("crossing_kernel") is kernel
+
+
+def test_edge_crossings_match_numpys_arithmetic_bit_for_bit(kernel):
+    # Near-degenerate pairs at every scale (edges grazing a triangle): the
+    # scalar code gives numpy's answers on every pair, not just most.
+    import numba
+
+    @numba.njit
+    def every_pair(nodes, a, b):
+        hit = np.zeros(len(a), np.bool_)
+        for p in range(len(a)):
+            hit[p] = kernel._edges_cross(nodes, a[p], b[p])
+        return hit
+
+    rng = np.random.default_rng(8)
+    nodes = rng.normal(size=(3000, 3)) * 10.0 ** rng.integers(-6, 4, size=(3000, 1))
+    tri = rng.integers(0, 3000, size=(200_000, 3))
+    a, b = tri[:100_000].copy(), tri[100_000:]
+    graze = rng.random(100_000) < 0.5
+    w = rng.random((100_000, 3))
+    w /= w.sum(axis=1, keepdims=True)
+    nodes = np.concatenate([nodes, np.einsum("pk,pkc->pc", w, nodes[b])[graze]])
+    a[graze, 0] = 3000 + np.arange(graze.sum())
+    expected = _reference_edges_cross(nodes[a], nodes[b])
+    assert 0 < expected.sum() < len(a)
+    assert np.array_equal(every_pair(nodes, a, b), expected)
+
+
+def _soup(rng, n, extent, sizes):
+    """``n`` random quads (planar parallelograms of several sizes, any
+    orientation) scattered over ``extent``; many cross each other."""
+    corner = rng.random((n, 3)) * extent
+    size = rng.choice(sizes, size=(n, 1)) * rng.uniform(0.5, 1.0, (n, 1))
+    u, v = rng.normal(size=(2, n, 3))
+    u *= size / np.linalg.norm(u, axis=1, keepdims=True)
+    v *= size / np.linalg.norm(v, axis=1, keepdims=True)
+    nodes = np.stack([corner, corner + u, corner + u + v, corner + v], axis=1).reshape(-1, 3)
+    return nodes, np.arange(4 * n).reshape(n, 4)
+
+
+def _crossings(positions, quads, moved, seeds, near=None):
+    """The crossing triangle pairs of one round: a set of pairs of node
+    triples, each pair in order (which comes first is the search's order
+    where both triangles are in focus)."""
+    centre, reach = _balls(positions, quads)
+    diagonal, split = np.zeros(len(quads), bool), np.zeros(len(quads), bool)
+    pairs = _crossing_quads(positions, quads, diagonal, split, centre, reach, seeds, moved, near, 16, None)
+    return {tuple(sorted(map(tuple, p))) for p in pairs.tolist()}
+
+
+@pytest.mark.parametrize("extent,sizes", [((6, 6, 2), [0.3, 1.0, 3.0]),    # three size classes
+                                          ((2000, 2000, 5), [1.0]),          # scattered: a wider grid
+                                          ((20, 0.5, 20), [0.5, 0.6])])      # a wall, one tier in effect
+def test_same_crossings_as_the_numpy_search(monkeypatch, kernel, extent, sizes):
+    rng = np.random.default_rng(3)
+    found = []
+    for trial in range(4):
+        positions, quads = _soup(rng, 400, extent, sizes)
+        moved = rng.random(len(positions)) < [1.0, 0.3, 0.05, 0.5][trial]
+        seeds = np.flatnonzero(moved[quads].any(axis=1))
+        near = None if trial < 3 else (positions.min(axis=0), positions.min(axis=0) + 0.5 * np.array(extent))
+        monkeypatch.setenv("URBANVOX_JIT", "0")
+        expected = _crossings(positions, quads, moved, seeds, near)
+        monkeypatch.setenv("URBANVOX_JIT", "1")
+        assert _crossings(positions, quads, moved, seeds, near) == expected
+        found.append(len(expected))
+    if extent[0] < 100:  # crowded: crossings in most trials
+        assert sum(n > 0 for n in found) >= 3
+
+
+def test_the_pipeline_gives_the_same_model_with_or_without_the_kernel(monkeypatch, kernel, district):
+    from core.pipeline import ReconstructionParams, reconstruct_point_cloud
+
+    results = []
+    for switch in ("0", "1"):
+        monkeypatch.setenv("URBANVOX_JIT", switch)
+        results.append(reconstruct_point_cloud(district.laz, crs=district.crs,
+                                               params=ReconstructionParams(voxel_size=1.0)))
+    assert results[1].stats["projection_buildings"]["projected"] > 1000
+    assert np.array_equal(results[0].mesh.nodes, results[1].mesh.nodes)
+    assert results[0].block_rows() == results[1].block_rows()
+
+
+def test_empty_seeds_find_nothing(kernel):
+    positions, quads = _soup(np.random.default_rng(0), 10, (3, 3, 3), [1.0])
+    centre, reach = _balls(positions, quads)
+    tri = np.arange(2 * len(quads) * 3).reshape(-1, 3) % len(positions)
+    pairs = kernel.crossing_triangles(centre, reach, np.zeros(0, np.int64), tri, positions,
+                                      _pair_rows(positions, tri), np.ones(len(tri), bool))
+    assert pairs.shape == (0, 2)
