@@ -42,6 +42,8 @@ $(VENV_STAMP): requirements.txt requirements-dev.txt constraints.txt | $(SYSTEM_
 	test -x $(PYTHON) || $(SYSTEM_PYTHON) -m venv --system-site-packages $(VENV)
 	$(PYTHON) -m pip install --quiet --disable-pip-version-check -c constraints.txt -r requirements-dev.txt
 	$(PYTHON) -c 'import qgis.core, laspy, lazrs, trimesh, shapely, pyproj, scipy, meshio, numpy, pytest; print("venv ok: numpy", numpy.__version__, "laspy", laspy.__version__, "trimesh", trimesh.__version__)'
+	# Compile the optional numba kernels once, for both import names (core here, urbanvox.core in QGIS).
+	$(ENV) $(PYTHON) -m core.jit && PYTHONPATH="$$URBANVOX_ROOT/.build/plugins:$$PYTHONPATH" $(PYTHON) -m urbanvox.core.jit
 	touch $@
 
 TRANSLATIONS := $(patsubst %.ts,%.qm,$(wildcard i18n/*.ts))

@@ -78,7 +78,7 @@ def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray,
 
     >>> positions = np.array([[0.3, 0.3, 1.0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
     ...                       [0, 0, 0.5], [1, 0, 0.5], [1, 1, 0.5], [0, 1, 0.5]])
-    >>> tri = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
+    >>> tri = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]], dtype=np.int32)
     >>> from core.intersect import _balls, _pair_rows
     >>> centre, reach = _balls(positions, np.array([[0, 1, 2, 3], [4, 5, 6, 7]]))
     >>> in_focus = np.array([True, True, False, False])
@@ -115,6 +115,21 @@ def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray,
 
     found.extend(map_blocks(search, row_blocks(len(seeds), _SEED_BLOCK)))
     return np.concatenate(found)
+
+
+def warm_up() -> int:
+    """Compile for the types :func:`core.intersect._crossing_quads` passes
+    (32-bit triangles): two plates, a node pushed through the upper one."""
+    from .intersect import _balls, _pair_rows
+
+    positions = np.array([[0.3, 0.3, 1.0], [1, 0, 0], [1, 1, 0], [0, 1, 0],
+                          [0, 0, 0.5], [1, 0, 0.5], [1, 1, 0.5], [0, 1, 0.5]])
+    tri = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]], dtype=np.int32)
+    centre, reach = _balls(positions, np.array([[0, 1, 2, 3], [4, 5, 6, 7]]))
+    pairs = crossing_triangles(centre, reach, np.array([0]), tri, positions, _pair_rows(positions, tri),
+                               np.array([True, True, False, False]))
+    assert len(pairs) == 2, pairs
+    return len(pairs)
 
 
 def _grid(centre: np.ndarray, cell: float, n: int) -> tuple[float, float, float, int, int]:

@@ -15,9 +15,11 @@ runs. numba is imported only when a kernel is first wanted, never at import
 of :mod:`core` (QGIS loads the provider without it), and a numba that fails
 to import or to compile falls back with a warning, never an error.
 
-Compiled code is cached on disk beside the module (``__pycache__``; numba
-falls back to the user's cache directory where that is read-only): the first
-run on a machine compiles for a few seconds, later runs and processes load it.
+Compiled code is cached on disk (:func:`cache_dir`): the first run on a
+machine compiles for a few seconds, later runs and processes load it. The
+cache is kept apart for each name the package is imported under (``core`` in
+the tests, ``urbanvox.core`` in QGIS): numba's own cache, one per source
+file, stores the module's import name, and the other name fails to load it.
 """
 from __future__ import annotations
 
@@ -26,6 +28,14 @@ import os
 import threading
 import warnings
 from types import ModuleType
+
+from .errors import Cancelled
+
+#: The kernel modules of core, each with a ``warm_up()`` (see :func:`warm_up`).
+KERNELS = ("crossing_kernel",)
+
+#: Kernel calls that failed in this process (:func:`run`); the tests check it is empty.
+failures: list[str] = []
 
 _loaded: dict[str, ModuleType | None] = {}
 _lock = threading.Lock()
@@ -57,11 +67,83 @@ def kernels(name: str) -> ModuleType | None:
     with _lock:
         if name not in _loaded:
             try:
-                _loaded[name] = importlib.import_module(f"{__package__}.{name}")
+                import numba
             except ImportError:
                 _loaded[name] = None  # numba is optional: the numpy code runs
+                return None
+            # numba picks a function's cache directory when it is decorated,
+            # at import: the package's own directory then, and numba's
+            # setting as it was afterwards.
+            saved = numba.config.CACHE_DIR
+            numba.config.CACHE_DIR = cache_dir() or saved
+            try:
+                _loaded[name] = importlib.import_module(f"{__package__}.{name}")
             except Exception as exc:  # a broken numba install must not stop a run
-                warnings.warn(f"urbanvox: compiled kernels off ({name}: {exc}); numpy code runs instead",
-                              RuntimeWarning, stacklevel=2)
                 _loaded[name] = None
+                _warn(name, exc)
+            finally:
+                numba.config.CACHE_DIR = saved
         return _loaded[name]
+
+
+def run(name: str, function: str, *args):
+    """``core.<name>.<function>(*args)``, or None if the kernel cannot run.
+
+    None when :func:`kernels` has no module, or when the call fails (a cache
+    that cannot be read, a numba that cannot compile): the kernel is then
+    off for the rest of the process, with a warning, and the caller runs
+    its numpy code. :class:`core.errors.Cancelled` is raised as it comes.
+    """
+    module = kernels(name)
+    if module is None:
+        return None
+    try:
+        return getattr(module, function)(*args)
+    except Cancelled:
+        raise
+    except Exception as exc:
+        with _lock:
+            _loaded[name] = None
+            failures.append(f"{name}.{function}: {exc!r}")
+        _warn(name, exc)
+        return None
+
+
+def cache_dir() -> str | None:
+    """Where compiled kernels are cached: ``__pycache__/numba/<package>`` beside
+    this module, else (read-only install) under the user's cache directory;
+    None if neither can be written (numba then chooses)."""
+    user_cache = os.environ.get("XDG_CACHE_HOME") or os.environ.get("LOCALAPPDATA") \
+        or os.path.join(os.path.expanduser("~"), ".cache")
+    for base in (os.path.join(os.path.dirname(os.path.abspath(__file__)), "__pycache__"),
+                 os.path.join(user_cache, "urbanvox")):
+        path = os.path.join(base, "numba", __package__)
+        try:
+            os.makedirs(path, exist_ok=True)
+        except OSError:
+            continue
+        if os.access(path, os.W_OK):
+            return path
+    return None
+
+
+def _warn(name: str, exc: BaseException) -> None:
+    warnings.warn(f"urbanvox: compiled kernel {name} off ({exc!r}); the numpy code runs instead",
+                  RuntimeWarning, stacklevel=3)
+
+
+def warm_up() -> list[str]:
+    """Compile every kernel for the argument types the pipeline passes (or
+    load them from the cache): ``make setup`` runs it (``python -m
+    core.jit``), so that the first reconstruction does not wait for it.
+    Returns the kernel modules that can run."""
+    return [name for name in KERNELS if run(name, "warm_up") is not None]
+
+
+if __name__ == "__main__":
+    import time
+
+    start = time.perf_counter()
+    names = warm_up()
+    print(f"compiled kernels: {', '.join(names) or 'none (numba missing or URBANVOX_JIT=0)'}"
+          f" ({time.perf_counter() - start:.1f} s)")

@@ -13,7 +13,10 @@ def kernel():
     module = jit.kernels("crossing_kernel")
     # numba is in requirements.txt: the suite must run the kernel, not skip it.
     assert module is not None, "numba did not import: pip install -c constraints.txt -r requirements.txt"
-    return module
+    failed = len(jit.failures)
+    yield module
+    # A failing call falls back to numpy (jit.run): the comparisons would pass without the kernel.
+    assert jit.failures[failed:] == []
 
 
 def test_switched_off_by_the_environment(monkeypatch, kernel):
@@ -111,3 +114,37 @@ def test_empty_seeds_find_nothing(kernel):
     pairs = kernel.crossing_triangles(centre, reach, np.zeros(0, np.int64), tri, positions,
                                       _pair_rows(positions, tri), np.ones(len(tri), bool))
     assert pairs.shape == (0, 2)
+
+
+def test_a_failing_kernel_falls_back_to_numpy_with_a_warning(kernel, monkeypatch):
+    # kernel first: its check of jit.failures runs after monkeypatch has put the list back.
+    from test_intersect import stacked_grids
+
+    from core.intersect import undo_crossings
+
+    def broken(*args):
+        raise RuntimeError("cannot load the cache")
+
+    old, quads = stacked_grids()
+    rng = np.random.default_rng(0)
+    moved = rng.random(len(old)) < 0.5
+    new = old.copy()
+    new[moved] += rng.normal(scale=0.25, size=(moved.sum(), 3))
+    expected = undo_crossings(old, new, moved, quads)
+    monkeypatch.setattr(kernel, "crossing_triangles", broken)
+    monkeypatch.setattr(jit, "failures", [])
+    monkeypatch.setitem(jit._loaded, "crossing_kernel", kernel)  # put back as it was afterwards
+    with pytest.warns(RuntimeWarning, match="crossing_kernel off"):
+        positions, kept, undone = undo_crossings(old, new, moved, quads)
+    assert undone == expected[2] > 0 and np.array_equal(positions, expected[0])
+    assert jit.kernels("crossing_kernel") is None and len(jit.failures) == 1
+
+
+def test_the_cache_is_kept_apart_for_each_import_name():
+    # numba's cache stores the module's import name: QGIS imports the plugin
+    # as urbanvox.core, the tests as core, and each must not load the other's.
+    path = jit.cache_dir()
+    assert path is not None and path.endswith(jit.__package__)
+    import os
+
+    assert os.access(path, os.W_OK)
