@@ -25,6 +25,7 @@ from typing import Callable
 import numpy as np
 from scipy.spatial import cKDTree
 
+from . import jit
 from .errors import Cancelled
 from .intersect import undo_crossings
 from .neighbours import by_value_then_coordinates, nearest, search_tree
@@ -321,6 +322,12 @@ def _candidates(tree: cKDTree, data: np.ndarray, p: np.ndarray, normal: np.ndarr
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         near = nearest(tree, data, p[rows], _NEAR, radius)[1]
+        if jit.kernels("projection_kernel") is not None:
+            # The same points, one compiled pass per node (core.projection_kernel).
+            chosen = jit.run("projection_kernel", "closest_to_lines", data, near, p[rows], normal[rows], tries)
+            if chosen is not None:
+                candidates[rows] = chosen
+                continue
         out = candidates[rows]
         start = rows.start
 

@@ -5,6 +5,8 @@
   ``URBANVOX_SHARED_DATA`` overrides the location.
 - ``district``: the synthetic district of :mod:`core.synthetic` (seed 0), written once per
   session to a temporary folder as LAZ, building STL and ground STL, with its truth.
+- ``compiled``: the compiled kernel modules of :mod:`core.jit` by name; the test fails
+  if numba is missing, or if a kernel call fell back to numpy while it ran.
 """
 
 import os
@@ -22,6 +24,24 @@ if str(REPO_ROOT) not in sys.path:  # `import core` whichever way pytest was sta
 def pytest_configure(config):
     config.addinivalue_line("markers", "slow: runs the whole pipeline on real data (seconds to a minute each)")
     config.addinivalue_line("markers", "qgis: needs QGIS (tests/qgis)")
+
+
+@pytest.fixture
+def compiled():
+    """``compiled(name)`` is the kernel module ``core.<name>`` (core.jit)."""
+    from core import jit
+
+    failed = len(jit.failures)
+
+    def kernel(name):
+        module = jit.kernels(name)
+        # numba is in requirements.txt: the suite must run the kernels, not skip them.
+        assert module is not None, "numba did not import: pip install -c constraints.txt -r requirements.txt"
+        return module
+
+    yield kernel
+    # A failing call falls back to numpy (jit.run): comparisons with numpy would pass without the kernel.
+    assert jit.failures[failed:] == []
 
 
 @pytest.fixture(scope="session")

@@ -3,27 +3,13 @@ it stands in for (core.intersect): the same crossings, bit for bit."""
 import numpy as np
 import pytest
 
-from core import jit
 from core.intersect import _balls, _crossing_quads, _pair_rows
 from test_intersect import _reference_edges_cross
 
 
 @pytest.fixture
-def kernel():
-    module = jit.kernels("crossing_kernel")
-    # numba is in requirements.txt: the suite must run the kernel, not skip it.
-    assert module is not None, "numba did not import: pip install -c constraints.txt -r requirements.txt"
-    failed = len(jit.failures)
-    yield module
-    # A failing call falls back to numpy (jit.run): the comparisons would pass without the kernel.
-    assert jit.failures[failed:] == []
-
-
-def test_switched_off_by_the_environment(monkeypatch, kernel):
-    monkeypatch.setenv("URBANVOX_JIT", "0")
-    assert jit.kernels("crossing_kernel") is None
-    monkeypatch.setenv("URBANVOX_JIT", "1")
-    assert jit.kernels("crossing_kernel") is kernel
+def kernel(compiled):
+    return compiled("crossing_kernel")
 
 
 def test_edge_crossings_match_numpys_arithmetic_bit_for_bit(kernel):
@@ -94,19 +80,6 @@ def test_same_crossings_as_the_numpy_search(monkeypatch, kernel, extent, sizes):
         assert sum(n > 0 for n in found) >= 3
 
 
-def test_the_pipeline_gives_the_same_model_with_or_without_the_kernel(monkeypatch, kernel, district):
-    from core.pipeline import ReconstructionParams, reconstruct_point_cloud
-
-    results = []
-    for switch in ("0", "1"):
-        monkeypatch.setenv("URBANVOX_JIT", switch)
-        results.append(reconstruct_point_cloud(district.laz, crs=district.crs,
-                                               params=ReconstructionParams(voxel_size=1.0)))
-    assert results[1].stats["projection_buildings"]["projected"] > 1000
-    assert np.array_equal(results[0].mesh.nodes, results[1].mesh.nodes)
-    assert results[0].block_rows() == results[1].block_rows()
-
-
 def test_empty_seeds_find_nothing(kernel):
     positions, quads = _soup(np.random.default_rng(0), 10, (3, 3, 3), [1.0])
     centre, reach = _balls(positions, quads)
@@ -114,37 +87,3 @@ def test_empty_seeds_find_nothing(kernel):
     pairs = kernel.crossing_triangles(centre, reach, np.zeros(0, np.int64), tri, positions,
                                       _pair_rows(positions, tri), np.ones(len(tri), bool))
     assert pairs.shape == (0, 2)
-
-
-def test_a_failing_kernel_falls_back_to_numpy_with_a_warning(kernel, monkeypatch):
-    # kernel first: its check of jit.failures runs after monkeypatch has put the list back.
-    from test_intersect import stacked_grids
-
-    from core.intersect import undo_crossings
-
-    def broken(*args):
-        raise RuntimeError("cannot load the cache")
-
-    old, quads = stacked_grids()
-    rng = np.random.default_rng(0)
-    moved = rng.random(len(old)) < 0.5
-    new = old.copy()
-    new[moved] += rng.normal(scale=0.25, size=(moved.sum(), 3))
-    expected = undo_crossings(old, new, moved, quads)
-    monkeypatch.setattr(kernel, "crossing_triangles", broken)
-    monkeypatch.setattr(jit, "failures", [])
-    monkeypatch.setitem(jit._loaded, "crossing_kernel", kernel)  # put back as it was afterwards
-    with pytest.warns(RuntimeWarning, match="crossing_kernel off"):
-        positions, kept, undone = undo_crossings(old, new, moved, quads)
-    assert undone == expected[2] > 0 and np.array_equal(positions, expected[0])
-    assert jit.kernels("crossing_kernel") is None and len(jit.failures) == 1
-
-
-def test_the_cache_is_kept_apart_for_each_import_name():
-    # numba's cache stores the module's import name: QGIS imports the plugin
-    # as urbanvox.core, the tests as core, and each must not load the other's.
-    path = jit.cache_dir()
-    assert path is not None and path.endswith(jit.__package__)
-    import os
-
-    assert os.access(path, os.W_OK)

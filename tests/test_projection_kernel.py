@@ -1,0 +1,68 @@
+"""The compiled choice of the data points a node tries
+(core.projection_kernel) against numpy's (core.project): the same points."""
+import numpy as np
+import pytest
+
+from core.project import _distance_to_line, _ranked
+
+
+@pytest.fixture
+def kernel(compiled):
+    return compiled("projection_kernel")
+
+
+def numpy_choice(data, near, p, normal, tries):
+    off_line = _distance_to_line(data, near, p, normal)
+    return np.take_along_axis(near, _ranked(off_line, near, data, tries), axis=1)
+
+
+@pytest.mark.parametrize("k,tries", [(24, 3), (4, 3), (3, 3), (2, 3), (24, 1)])
+def test_same_points_as_numpy_with_ties_and_missing_neighbours(kernel, k, tries):
+    rng = np.random.default_rng(k + tries)
+    # Data on a half-voxel lattice, with duplicates: many points at equal
+    # distances from nodes on the lattice with axis-aligned normals.
+    data = np.round(rng.uniform(0, 20, (4000, 3)) * 2) / 2
+    data = np.concatenate([data, data[:300]])
+    q = 20_000
+    p = np.round(rng.uniform(0, 20, (q, 3)) * 2) / 2
+    normal = np.eye(3)[rng.integers(0, 3, q)] * rng.choice([-1.0, 1.0], (q, 1))
+    tilted = rng.random(q) < 0.3
+    normal[tilted] = rng.normal(size=(tilted.sum(), 3))
+    normal[tilted] /= np.linalg.norm(normal[tilted], axis=1, keepdims=True)
+    normal[rng.random(q) < 0.02] = 0.0  # unusable nodes are ranked too
+    near = rng.integers(0, len(data), (q, k))
+    near[rng.random((q, k)) < 0.15] = len(data)  # missing neighbours
+    expected = numpy_choice(data, near, p, normal, tries)
+    got = kernel.closest_to_lines(data, near, p, normal, tries)
+    assert got.shape == expected.shape and np.array_equal(got, expected)
+
+
+def test_rows_with_ties_are_ordered_by_coordinates(kernel):
+    # Four points at the same distance from the vertical line: x, then y, then z decide.
+    data = np.array([[1.0, 0, 5], [0, 1, 2], [0, -1, 3], [-1, 0, 4], [0, 1, 1]])
+    near = np.array([[0, 1, 2, 3, 4]])
+    got = kernel.closest_to_lines(data, near, np.zeros((1, 3)), np.array([[0, 0, 1.0]]), 4)
+    assert got.tolist() == [[3, 2, 4, 1]]
+    assert np.array_equal(got, numpy_choice(data, near, np.zeros((1, 3)), np.array([[0, 0, 1.0]]), 4))
+
+
+def test_distances_to_the_line_are_numpys_bit_for_bit(kernel):
+    import numba
+
+    @numba.njit
+    def every(data, near, p, normal):
+        out = np.empty(near.shape)
+        for q in range(near.shape[0]):
+            for j in range(near.shape[1]):
+                x = data[near[q, j]]
+                out[q, j] = kernel._off_line(x[0], x[1], x[2], p[q, 0], p[q, 1], p[q, 2],
+                                             normal[q, 0], normal[q, 1], normal[q, 2])
+        return out
+
+    rng = np.random.default_rng(9)
+    data = rng.uniform(-3000, 3000, (5000, 3))
+    p = data[rng.integers(0, 5000, 20_000)] + rng.normal(scale=2.0, size=(20_000, 3))
+    normal = rng.normal(size=(20_000, 3))
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    near = rng.integers(0, 5000, (20_000, 24))
+    assert np.array_equal(every(data, near, p, normal), _distance_to_line(data, near, p, normal))
