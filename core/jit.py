@@ -32,7 +32,7 @@ from types import ModuleType
 from .errors import Cancelled
 
 #: The kernel modules of core, each with a ``warm_up()`` (see :func:`warm_up`).
-KERNELS = ("crossing_kernel", "projection_kernel")
+KERNELS = ("crossing_kernel", "neighbours_kernel", "projection_kernel")
 
 #: Kernel calls that failed in this process (:func:`run`); the tests check it is empty.
 failures: list[str] = []

@@ -28,7 +28,7 @@ from scipy.spatial import cKDTree
 from . import jit
 from .errors import Cancelled
 from .intersect import undo_crossings
-from .neighbours import by_value_then_coordinates, nearest, search_tree
+from .neighbours import by_value_then_coordinates, nearest, point_index
 from .parallel import map_blocks, on_pool, row_blocks
 from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
@@ -38,6 +38,8 @@ from .vectors import cross, dot, length
 
 #: Data points examined around each node, planes tried per node, points per plane.
 _NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
+#: Side of the columns of the compiled point index, in voxels (core.neighbours_kernel).
+_COLUMN = 1.5
 #: Planes fitted per block of rows (temporaries of a few MB).
 _FIT_ROWS = 16384
 #: Nodes whose candidate points are searched at a time, and ranked at a time.
@@ -231,7 +233,8 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     check_crossings : bool
         Undo moves that make a face cross another (:mod:`core.intersect`).
     tree : cKDTree, optional
-        ``search_tree(data)``, when the caller has it (it is made otherwise).
+        ``search_tree(data)``, when the caller has it; without numba it is
+        made otherwise (:func:`core.neighbours.point_index`).
 
     Returns
     -------
@@ -257,8 +260,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     usable = size[:, 0] > 1e-6
     normal = np.divide(normal, size, out=np.zeros_like(normal), where=size > 0)
     p = nodes.take(idx_nodes, axis=0)
-    if tree is None:
-        tree = search_tree(data)
+    tree = point_index(data, _COLUMN * voxel_size, tree)
     radius = max_distance * voxel_size
     candidates = _candidates(tree, data, p, normal, radius, _TRIES, is_cancelled)
     cos_max = np.cos(np.radians(max_angle))

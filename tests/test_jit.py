@@ -69,3 +69,26 @@ def test_the_pipeline_gives_the_same_model_with_or_without_the_kernels(monkeypat
     assert results[0].block_rows() == results[1].block_rows()
 
 
+
+
+def test_a_failing_point_index_falls_back_to_a_kd_tree(compiled, monkeypatch):
+    # compiled first: its check of jit.failures runs after monkeypatch has put the list back.
+    from core import neighbours
+
+    module = compiled("neighbours_kernel")
+    data = np.random.default_rng(1).uniform(0, 10, (500, 3))
+    index = neighbours.point_index(data, 1.0)
+    assert isinstance(index, module.ColumnIndex)
+    expected = neighbours.nearest(index, data, data[:20] + 0.1, 5)
+
+    def broken(*args):
+        raise RuntimeError("no more memory")
+
+    monkeypatch.setattr(module, "nearest_in", broken)
+    monkeypatch.setattr(jit, "failures", [])
+    monkeypatch.setitem(jit._loaded, "neighbours_kernel", module)
+    with pytest.warns(RuntimeWarning, match="neighbours_kernel off"):
+        found = neighbours.nearest(index, data, data[:20] + 0.1, 5)
+    assert np.array_equal(found[0], expected[0]) and np.array_equal(found[1], expected[1])
+    assert isinstance(index.fallback, neighbours.cKDTree)
+    assert neighbours.point_index(data, 1.0) is not index and jit.kernels("neighbours_kernel") is None
