@@ -47,6 +47,8 @@ def point_index(data: np.ndarray, cell: float, tree: cKDTree | None = None):
     >>> nearest(point_index(data, 1.0), data, np.zeros((1, 3)), 2)[1].tolist()
     [[1, 3]]
     """
+    if tree is not None and not isinstance(tree, cKDTree):
+        return tree  # already an index
     if jit.kernels("neighbours_kernel") is not None:
         index = jit.run("neighbours_kernel", "ColumnIndex", data, cell)
         if index is not None:
@@ -129,8 +131,10 @@ def by_value_then_coordinates(value: np.ndarray, index: np.ndarray, data: np.nda
     return np.lexsort((point[..., 2], point[..., 1], point[..., 0], value), axis=1)[:, :k]
 
 
-def nearest_distance(points: np.ndarray, trees: Sequence[cKDTree], bound: float) -> np.ndarray:
+def nearest_distance(points: np.ndarray, trees: Sequence, bound: float) -> np.ndarray:
     """Distance from every point to the nearest point of any tree's data (NaN without data).
+
+    A tree may also be a compiled index (:func:`point_index`): the same distances.
 
     The first tree is searched in full. The others first only within
     ``bound``, a search that stops early; where the nearest point so far is
@@ -146,16 +150,15 @@ def nearest_distance(points: np.ndarray, trees: Sequence[cKDTree], bound: float)
     [1.0, 1.0]
     """
     distance = np.full(len(points), np.inf)
-    workers = thread_count()
     searched = False
     for tree in trees:
-        if tree.n == 0 or len(points) == 0:
+        if _size(tree) == 0 or len(points) == 0:
             continue
         if not searched:
-            distance = tree.query(points, k=1, workers=workers)[0]
+            distance = _nearest_one(tree, points, np.inf)
             searched = True
             continue
-        found = tree.query(points, k=1, distance_upper_bound=bound, workers=workers)[0]
+        found = _nearest_one(tree, points, bound)
         # Nothing within bound, and nothing that near so far: searched again
         # within bounds four times wider each time, each point as far as its
         # distance so far (a farther point would not be the nearest). Points
@@ -167,9 +170,20 @@ def nearest_distance(points: np.ndarray, trees: Sequence[cKDTree], bound: float)
             limit *= 4
             now = distance[pending] <= limit
             if now.any():
-                found[pending[now]] = tree.query(points.take(pending[now], axis=0), k=1,
-                                                 distance_upper_bound=limit, workers=workers)[0]
+                found[pending[now]] = _nearest_one(tree, points.take(pending[now], axis=0), limit)
             pending = pending[~now]
         np.minimum(distance, found, out=distance)
     distance[np.isinf(distance)] = np.nan
     return distance
+
+
+def _size(tree) -> int:
+    """Points in a KD-tree or a compiled index."""
+    return tree.n if isinstance(tree, cKDTree) else len(tree.data)
+
+
+def _nearest_one(tree, points: np.ndarray, upper: float) -> np.ndarray:
+    """Distance to the nearest point strictly within ``upper`` (``inf`` if none)."""
+    if isinstance(tree, cKDTree):
+        return tree.query(points, k=1, distance_upper_bound=upper, workers=thread_count())[0]
+    return nearest(tree, tree.data, points, 1, upper)[0][:, 0].copy()

@@ -38,8 +38,9 @@ from .vectors import cross, dot, length
 
 #: Data points examined around each node, planes tried per node, points per plane.
 _NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
-#: Side of the columns of the compiled point index, in voxels (core.neighbours_kernel).
-_COLUMN = 1.5
+#: Side of the columns of the compiled point index, in voxels (core.neighbours_kernel):
+#: the candidates' search radius (1.5 voxels) spans two or three of them.
+COLUMN_VOXELS = 1.5
 #: Planes fitted per block of rows (temporaries of a few MB).
 _FIT_ROWS = 16384
 #: Nodes whose candidate points are searched at a time, and ranked at a time.
@@ -260,7 +261,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     usable = size[:, 0] > 1e-6
     normal = np.divide(normal, size, out=np.zeros_like(normal), where=size > 0)
     p = nodes.take(idx_nodes, axis=0)
-    tree = point_index(data, _COLUMN * voxel_size, tree)
+    tree = point_index(data, COLUMN_VOXELS * voxel_size, tree)
     radius = max_distance * voxel_size
     candidates = _candidates(tree, data, p, normal, radius, _TRIES, is_cancelled)
     cos_max = np.cos(np.radians(max_angle))
