@@ -38,11 +38,12 @@ $(SYSTEM_STAMP): scripts/install-system-deps.sh
 constraints.txt: scripts/constraints.py | $(SYSTEM_STAMP)
 	$(SYSTEM_PYTHON) scripts/constraints.py > $@.tmp && mv $@.tmp $@
 
+# The venv, then the optional numba kernels compiled once, for both import names of the core
+# (core here, urbanvox.core in QGIS): the first reconstruction does not wait for them.
 $(VENV_STAMP): requirements.txt requirements-dev.txt constraints.txt | $(SYSTEM_STAMP)
 	test -x $(PYTHON) || $(SYSTEM_PYTHON) -m venv --system-site-packages $(VENV)
 	$(PYTHON) -m pip install --quiet --disable-pip-version-check -c constraints.txt -r requirements-dev.txt
 	$(PYTHON) -c 'import qgis.core, laspy, lazrs, trimesh, shapely, pyproj, scipy, meshio, numpy, pytest; print("venv ok: numpy", numpy.__version__, "laspy", laspy.__version__, "trimesh", trimesh.__version__)'
-	# Compile the optional numba kernels once, for both import names (core here, urbanvox.core in QGIS).
 	$(ENV) $(PYTHON) -m core.jit && PYTHONPATH="$$URBANVOX_ROOT/.build/plugins:$$PYTHONPATH" $(PYTHON) -m urbanvox.core.jit
 	touch $@
 

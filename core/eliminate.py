@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 from .classify import AIR, BUILDING
 from .errors import Cancelled
 from .grid import VoxelGrid
-from .neighbours import search_tree
+from .neighbours import nearest_within, search_tree
 from .parallel import map_blocks, row_blocks, thread_count
 
 #: Candidates examined per face when the quick ball tests cannot decide.
@@ -34,7 +34,8 @@ _FACES, _ROWS = 1 << 17, 4096
 
 def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
                           support: float = 0.6, extrude_roofs: bool = False, max_passes: int = 10,
-                          is_cancelled: Callable[[], bool] | None = None, tree: cKDTree | None = None) -> int:
+                          is_cancelled: Callable[[], bool] | None = None, tree: cKDTree | None = None,
+                          index=None) -> int:
     """Turn unsupported boundary voxels into air, in place, until none is left.
 
     The paper's single pass leaves the voxels it exposes untested: a voxel
@@ -55,6 +56,9 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
         Also accept points above a wall face (airborne data, see module doc).
     tree : cKDTree, optional
         ``search_tree(points)``, when the caller has it (it is made otherwise).
+    index : ColumnIndex, optional
+        A compiled index over ``points`` (:func:`core.neighbours.point_index`):
+        it finds each face's nearest point, the same as the tree, faster.
 
     Returns
     -------
@@ -72,7 +76,7 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
     >>> eliminate_unsupported(lab, g, pts), lab.ravel().tolist()
     (1, [1, 2, 3, 3])
     """
-    test = _SupportTest(points, grid, support, extrude_roofs, tree)
+    test = _SupportTest(points, grid, support, extrude_roofs, tree, index)
     flat = labels.reshape(-1)
     shape = np.asarray(labels.shape)
     stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
@@ -141,8 +145,9 @@ class _SupportTest:
     """Whether data supports faces; the KD-trees are built once for all passes."""
 
     def __init__(self, points: np.ndarray, grid: VoxelGrid, support: float, extrude_roofs: bool,
-                 tree: cKDTree | None = None):
+                 tree: cKDTree | None = None, index=None):
         self.points = points
+        self.index = index
         self.grid = grid
         self.support = support
         self.extrude_roofs = extrude_roofs
@@ -165,7 +170,7 @@ class _SupportTest:
         h = self.grid.voxel_size
         centre = self.grid.origin + (cells + 0.5) * h
         centre[np.arange(len(cells)), axis] += sign * 0.5 * h
-        supported = _supported_3d(self.tree, self.points, centre, axis, h, self.support)
+        supported = _supported_3d(self.tree, self.points, centre, axis, h, self.support, self.index)
         if self.tree_2d is not None:
             wall = ~supported & (axis < 2)
             if wall.any():
@@ -176,14 +181,18 @@ class _SupportTest:
 
 
 def _supported_3d(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: np.ndarray,
-                  h: float, support: float) -> np.ndarray:
-    """Whether a point lies within ``support * h`` of each square face."""
+                  h: float, support: float, search=None) -> np.ndarray:
+    """Whether a point lies within ``support * h`` of each square face.
+
+    ``search`` finds the nearest point (``tree`` by default; a compiled index,
+    :func:`core.neighbours.point_index`, finds the same distance faster)."""
+    search = tree if search is None else search
     r_inner = support * h                      # ball inside the supported zone
     r_outer = np.sqrt(support**2 + 0.5) * h    # ball containing it
     # The nearest point answers both ball tests ("a point within r_inner",
     # "a point within r_outer"): one search that stops at the first point,
     # instead of counting every point in two balls.
-    nearest, _ = tree.query(centre, k=1, distance_upper_bound=r_outer * (1 + 1e-6), workers=thread_count())
+    nearest = nearest_within(search, centre, r_outer * (1 + 1e-6))
     supported = _within(tree, centre, nearest, r_inner)
     open_ = np.flatnonzero(~supported)
     if len(open_) == 0:

@@ -155,10 +155,10 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float) -> np.nd
         if _size(tree) == 0 or len(points) == 0:
             continue
         if not searched:
-            distance = _nearest_one(tree, points, np.inf)
+            distance = nearest_within(tree, points, np.inf)
             searched = True
             continue
-        found = _nearest_one(tree, points, bound)
+        found = nearest_within(tree, points, bound)
         # Nothing within bound, and nothing that near so far: searched again
         # within bounds four times wider each time, each point as far as its
         # distance so far (a farther point would not be the nearest). Points
@@ -170,7 +170,7 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float) -> np.nd
             limit *= 4
             now = distance[pending] <= limit
             if now.any():
-                found[pending[now]] = _nearest_one(tree, points.take(pending[now], axis=0), limit)
+                found[pending[now]] = nearest_within(tree, points.take(pending[now], axis=0), limit)
             pending = pending[~now]
         np.minimum(distance, found, out=distance)
     distance[np.isinf(distance)] = np.nan
@@ -182,8 +182,17 @@ def _size(tree) -> int:
     return tree.n if isinstance(tree, cKDTree) else len(tree.data)
 
 
-def _nearest_one(tree, points: np.ndarray, upper: float) -> np.ndarray:
-    """Distance to the nearest point strictly within ``upper`` (``inf`` if none)."""
+def nearest_within(tree, points: np.ndarray, upper: float) -> np.ndarray:
+    """Distance from every point to the nearest data point strictly within
+    ``upper`` (``inf`` if none), through a KD-tree or a compiled index
+    (:func:`point_index`): the same distances.
+
+    Examples
+    --------
+    >>> tree = search_tree(np.array([[0.0, 0, 1], [0, 0, 3]]))
+    >>> nearest_within(tree, np.array([[0.0, 0, 0], [0, 0, 9]]), 2.0).tolist()
+    [1.0, inf]
+    """
     if isinstance(tree, cKDTree):
         return tree.query(points, k=1, distance_upper_bound=upper, workers=thread_count())[0]
     return nearest(tree, tree.data, points, 1, upper)[0][:, 0].copy()

@@ -303,9 +303,15 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     lap("blocks")
 
     report(0.6, "Eliminating unsupported boundary voxels")
+    # The searches over the building points: the tree, and with numba a
+    # compiled index, which answers the nearest-point searches of the
+    # elimination, the projection and the distances at the end faster (the
+    # tree then goes after the elimination: one of them is held).
     building_tree = building_tree.result()
+    building_search = point_index(building, COLUMN_VOXELS * h, building_tree)
     eliminate_unsupported(labels, grid, building, params.support, extrude_roofs=airborne,
-                          is_cancelled=is_cancelled, tree=building_tree)
+                          is_cancelled=is_cancelled, tree=building_tree, index=building_search)
+    del building_tree
     make_well_composed(labels, is_cancelled=is_cancelled)
     blocks, table, dropped_after = _blocks_above_thresholds(labels, grid, thresholds, is_cancelled)
     lap("eliminate")
@@ -334,11 +340,6 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         nodes, stats["smoothing"] = smooth(surface, roles, params.smoothing_iterations,
                                            params.quality_threshold, is_cancelled)
         lap("smooth")
-    # The search over the building points for the projection and the
-    # distances: the tree itself without numba. The index is made here, not
-    # when the tree is done, and the tree goes: only one of them is held.
-    building_search = point_index(building, COLUMN_VOXELS * h, building_tree)
-    del building_tree
     if params.project:
         report(0.85, "Projecting nodes onto the data")
         # Ground data for the ground and the base of the blocks: the ground points,
