@@ -464,7 +464,7 @@ def _crossing_quads(positions: np.ndarray, quads: np.ndarray, diagonal: np.ndarr
                + positions.take(tri[:, 2], axis=0)) / 3
         in_focus &= np.all((mid >= near[0]) & (mid <= near[1]), axis=1)
     rows = _pair_rows(positions, tri)
-    if jit.kernels("crossing_kernel") is not None:
+    if jit.kernels("crossing_kernel", len(sub)) is not None:
         # One compiled pass over the seeds, the same crossings (core.crossing_kernel).
         pairs = jit.run("crossing_kernel", "crossing_triangles", centre.take(sub, axis=0), reach.take(sub),
                         np.searchsorted(sub, seeds), tri, positions, rows, in_focus, is_cancelled)

@@ -49,7 +49,7 @@ def point_index(data: np.ndarray, cell: float, tree: cKDTree | None = None):
     """
     if tree is not None and not isinstance(tree, cKDTree):
         return tree  # already an index
-    if jit.kernels("neighbours_kernel") is not None:
+    if jit.kernels("neighbours_kernel", len(data)) is not None:
         index = jit.run("neighbours_kernel", "ColumnIndex", data, cell)
         if index is not None:
             return index

@@ -329,7 +329,7 @@ def _candidates(tree: cKDTree, data: np.ndarray, p: np.ndarray, normal: np.ndarr
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         near = nearest(tree, data, p[rows], _NEAR, radius)[1]
-        if jit.kernels("projection_kernel") is not None:
+        if jit.kernels("projection_kernel", len(p)) is not None:
             # The same points, one compiled pass per node (core.projection_kernel).
             chosen = jit.run("projection_kernel", "closest_to_lines", data, near, p[rows], normal[rows], tries)
             if chosen is not None:

@@ -20,6 +20,15 @@ def test_switched_off_by_the_environment(monkeypatch, kernel):
     assert jit.kernels("crossing_kernel") is kernel
 
 
+def test_small_work_does_not_load_the_kernels(monkeypatch):
+    # Importing numba and loading the kernels costs more than small data gain;
+    # once loaded (by large work), a kernel runs for any size.
+    monkeypatch.setattr(jit, "_loaded", {})
+    assert jit.kernels("crossing_kernel", 1000) is None and "crossing_kernel" not in jit._loaded
+    module = jit.kernels("crossing_kernel", jit.WORTHWHILE)
+    assert module is not None and jit.kernels("crossing_kernel", 1000) is module
+
+
 def test_a_failing_kernel_falls_back_to_numpy_with_a_warning(kernel, monkeypatch):
     # kernel first: its check of jit.failures runs after monkeypatch has put the list back.
     from test_intersect import stacked_grids
