@@ -36,6 +36,7 @@ import numba
 import numpy as np
 
 from .errors import Cancelled
+from .neighbours_kernel import by_column
 from .parallel import map_blocks, row_blocks
 
 #: Quantile of the reach that splits the quads into the two tiers.
@@ -148,50 +149,15 @@ def _grid(centre: np.ndarray, cell: float, n: int) -> tuple[float, float, float,
 
 
 @_jit
-def _column(x, y, x0, y0, cell, nx, ny):
-    """Column of a point: the grid cell of (x, y), clipped to the grid."""
-    ix = min(max(int(np.floor((x - x0) / cell)), 0), nx - 1)
-    iy = min(max(int(np.floor((y - y0) / cell)), 0), ny - 1)
-    return ix + nx * iy
-
-
-@_jit
 def _bucket(members, centre, reach, x0, y0, cell, nx, ny):
-    """``members`` by column, each column's by height: the members in that
-    order, where each column starts in it (nx ny + 1), and the members'
-    centres (3, n) and reaches in that order (a search reads them in a run)."""
-    n = len(members)
-    key = np.empty(n, np.int64)
-    start = np.zeros(nx * ny + 1, np.int64)
-    for i in range(n):
-        m = members[i]
-        key[i] = _column(centre[m, 0], centre[m, 1], x0, y0, cell, nx, ny)
-        start[key[i] + 1] += 1
-    for k in range(nx * ny):
-        start[k + 1] += start[k]
-    fill = start[:-1].copy()
-    order = np.empty(n, np.int64)
-    height = np.empty(n)
-    for i in range(n):
-        order[fill[key[i]]] = members[i]
-        height[fill[key[i]]] = centre[members[i], 2]
-        fill[key[i]] += 1
-    for k in range(nx * ny):
-        lo, hi = start[k], start[k + 1]
-        if hi - lo > 32:
-            by_height = np.argsort(height[lo:hi])
-            order[lo:hi] = order[lo:hi][by_height]
-            height[lo:hi] = height[lo:hi][by_height]
-            continue
-        for i in range(lo + 1, hi):  # insertion sort: most columns hold a few quads
-            m, z = order[i], height[i]
-            j = i - 1
-            while j >= lo and height[j] > z:
-                order[j + 1], height[j + 1] = order[j], height[j]
-                j -= 1
-            order[j + 1], height[j + 1] = m, z
-    ball = np.empty((4, n))
-    for i in range(n):
+    """``members`` by column, each column's by height
+    (:func:`core.neighbours_kernel.by_column`): the members in that order,
+    where each column starts in it (nx ny + 1), and the members' centres
+    (3, n) and reaches in that order (a search reads them in a run)."""
+    order = np.empty(len(members), np.int64)
+    start = by_column(centre, members, x0, y0, cell, nx, ny, order)
+    ball = np.empty((4, len(order)))
+    for i in range(len(order)):
         m = order[i]
         ball[0, i], ball[1, i], ball[2, i], ball[3, i] = centre[m, 0], centre[m, 1], centre[m, 2], reach[m]
     return order, start, ball

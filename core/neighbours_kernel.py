@@ -122,16 +122,20 @@ def warm_up() -> int:
 
 
 @_jit
-def _bucket(data, x0, y0, cell, nx, ny, order):
-    """The points by column, each column's by height: their indices into
-    ``order`` (P,), and where each column starts (nx ny + 1) and their
-    coordinates in that order (3, P), returned."""
-    n = len(data)
+def by_column(xyz, rows, x0, y0, cell, nx, ny, order):
+    """Sort points by the column of the grid they fall in, each column's by
+    height: the rows ``rows`` of ``xyz`` (N, 3), or all of them if ``rows``
+    is empty, go into ``order`` (the row numbers) in that order. Returns
+    where each column starts in it (nx ny + 1). Also used for the quads'
+    centres by :mod:`core.crossing_kernel`."""
+    n = len(order)
+    subset = len(rows) > 0
     key = np.empty(n, np.int64)
     start = np.zeros(nx * ny + 1, np.int64)
     for i in range(n):
-        ix = min(max(int(np.floor((data[i, 0] - x0) / cell)), 0), nx - 1)
-        iy = min(max(int(np.floor((data[i, 1] - y0) / cell)), 0), ny - 1)
+        m = rows[i] if subset else i
+        ix = min(max(int(np.floor((xyz[m, 0] - x0) / cell)), 0), nx - 1)
+        iy = min(max(int(np.floor((xyz[m, 1] - y0) / cell)), 0), ny - 1)
         key[i] = ix + nx * iy
         start[key[i] + 1] += 1
     for c in range(nx * ny):
@@ -139,8 +143,9 @@ def _bucket(data, x0, y0, cell, nx, ny, order):
     fill = start[:-1].copy()
     height = np.empty(n)
     for i in range(n):
-        order[fill[key[i]]] = i
-        height[fill[key[i]]] = data[i, 2]
+        m = rows[i] if subset else i
+        order[fill[key[i]]] = m
+        height[fill[key[i]]] = xyz[m, 2]
         fill[key[i]] += 1
     for c in range(nx * ny):
         lo, hi = start[c], start[c + 1]
@@ -156,16 +161,26 @@ def _bucket(data, x0, y0, cell, nx, ny, order):
                 order[j + 1], height[j + 1] = order[j], height[j]
                 j -= 1
             order[j + 1], height[j + 1] = m, z
-    points = np.empty((3, n))
-    for t in range(n):
+    return start
+
+
+@_jit
+def _bucket(data, x0, y0, cell, nx, ny, order):
+    """:func:`by_column` of all the points into ``order``; returns where each
+    column starts and the points' coordinates in that order (3, P)."""
+    start = by_column(data, np.empty(0, np.int64), x0, y0, cell, nx, ny, order)
+    points = np.empty((3, len(order)))
+    for t in range(len(order)):
         i = order[t]
         points[0, t], points[1, t], points[2, t] = data[i, 0], data[i, 1], data[i, 2]
     return start, points
 
 
 @_jit
-def _before(d1, x1, y1, z1, i1, d2, x2, y2, z2, i2):
-    """Whether (d1, x1, y1, z1, i1) comes strictly before (d2, x2, y2, z2, i2)."""
+def before(d1, x1, y1, z1, i1, d2, x2, y2, z2, i2):
+    """Whether (d1, x1, y1, z1, i1) comes strictly before (d2, x2, y2, z2, i2):
+    the order of :func:`core.neighbours.by_value_then_coordinates`, the
+    index (column, point number) last as a stable sort keeps it."""
     if d1 != d2:
         return d1 < d2
     if x1 != x2:
@@ -212,7 +227,7 @@ def _search(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, p
                 d = np.sqrt(d2)
                 i = order[t - 1]
                 slot = kept
-                while slot > 0 and _before(d, x, y, z, i, dist[q, slot - 1], key[slot - 1, 0],
+                while slot > 0 and before(d, x, y, z, i, dist[q, slot - 1], key[slot - 1, 0],
                                            key[slot - 1, 1], key[slot - 1, 2], idx[q, slot - 1]):
                     slot -= 1
                 if slot >= k:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
+from .neighbours_kernel import before
 from .parallel import map_blocks, row_blocks, thread_count
 
 _jit = numba.njit(cache=True, nogil=True)
@@ -78,23 +79,12 @@ def _off_line(x, y, z, px, py, pz, nx, ny, nz):
 
 
 @_jit
-def _before(d1, x1, y1, z1, d2, x2, y2, z2):
-    """Whether (d1, x1, y1, z1) comes strictly before (d2, x2, y2, z2)."""
-    if d1 != d2:
-        return d1 < d2
-    if x1 != x2:
-        return x1 < x2
-    if y1 != y2:
-        return y1 < y2
-    return z1 < z2
-
-
-@_jit
 def _closest(data, near, p, normal, start, stop, out):
     """Rows ``start:stop`` of :func:`closest_to_lines`."""
     k, tries, n = near.shape[1], out.shape[1], len(data)
     keep = np.empty(tries, np.intp)
     key = np.empty((tries, 4))
+    column = np.empty(tries, np.intp)
     for q in range(start, stop):
         px, py, pz = p[q, 0], p[q, 1], p[q, 2]
         nx, ny, nz = normal[q, 0], normal[q, 1], normal[q, 2]
@@ -105,18 +95,18 @@ def _closest(data, near, p, normal, start, stop, out):
             c = i if i < n else n - 1
             x, y, z = data[c, 0], data[c, 1], data[c, 2]
             d = _off_line(x, y, z, px, py, pz, nx, ny, nz) if i < n else np.inf
-            # Insert in order; an equal key stays after the earlier columns (a stable sort).
+            # Insert in order; the column breaks ties last, as a stable sort.
             slot = kept
-            while slot > 0 and _before(d, x, y, z, key[slot - 1, 0], key[slot - 1, 1],
-                                       key[slot - 1, 2], key[slot - 1, 3]):
+            while slot > 0 and before(d, x, y, z, j, key[slot - 1, 0], key[slot - 1, 1],
+                                      key[slot - 1, 2], key[slot - 1, 3], column[slot - 1]):
                 slot -= 1
             if slot >= tries:
                 continue
             last = kept if kept < tries else tries - 1
             for s in range(last, slot, -1):
-                keep[s] = keep[s - 1]
+                keep[s], column[s] = keep[s - 1], column[s - 1]
                 key[s, 0], key[s, 1], key[s, 2], key[s, 3] = key[s - 1, 0], key[s - 1, 1], key[s - 1, 2], key[s - 1, 3]
-            keep[slot] = i
+            keep[slot], column[slot] = i, j
             key[slot, 0], key[slot, 1], key[slot, 2], key[slot, 3] = d, x, y, z
             if kept < tries:
                 kept += 1
