@@ -36,7 +36,7 @@ import numba
 import numpy as np
 
 from .errors import Cancelled
-from .neighbours_kernel import by_column
+from .neighbours_kernel import by_column, column_range, rising_from
 from .parallel import map_blocks, row_blocks
 
 #: Quantile of the reach that splits the quads into the two tiers.
@@ -249,17 +249,10 @@ def _search(seeds, centre, reach, is_seed, x0, y0, cell, nx, ny,
             if len(order) == 0:
                 continue
             span = (ra + tier_reach) * _MARGIN
-            ix0 = min(max(int(np.floor((ax - span - x0) / cell)), 0), nx - 1)
-            ix1 = min(max(int(np.floor((ax + span - x0) / cell)), 0), nx - 1)
-            iy0 = min(max(int(np.floor((ay - span - y0) / cell)), 0), ny - 1)
-            iy1 = min(max(int(np.floor((ay + span - y0) / cell)), 0), ny - 1)
+            ix0, ix1, iy0, iy1 = column_range(ax, ay, span, x0, y0, cell, nx, ny)
             for iy in range(iy0, iy1 + 1):
                 for ix in range(ix0, ix1 + 1):
-                    k = ix + nx * iy
-                    lo, hi = start[k], start[k + 1]
-                    if lo == hi:
-                        continue
-                    i = lo + np.searchsorted(ball[2, lo:hi], az - span)
+                    i, hi = rising_from(start, ball[2], ix + nx * iy, az - span)
                     while i < hi and ball[2, i] <= az + span:
                         dx, dy, dz = ball[0, i] - ax, ball[1, i] - ay, ball[2, i] - az
                         limit = (ra + ball[3, i]) * _MARGIN

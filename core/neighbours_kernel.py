@@ -165,6 +165,25 @@ def by_column(xyz, rows, x0, y0, cell, nx, ny, order):
 
 
 @_jit
+def column_range(x, y, span, x0, y0, cell, nx, ny):
+    """First and last column along x, then along y, of the grid cells that
+    the square of half-side ``span`` around (x, y) meets, clipped to the grid."""
+    ix0 = min(max(int(np.floor((x - span - x0) / cell)), 0), nx - 1)
+    ix1 = min(max(int(np.floor((x + span - x0) / cell)), 0), nx - 1)
+    iy0 = min(max(int(np.floor((y - span - y0) / cell)), 0), ny - 1)
+    iy1 = min(max(int(np.floor((y + span - y0) / cell)), 0), ny - 1)
+    return ix0, ix1, iy0, iy1
+
+
+@_jit
+def rising_from(start, height, column, low):
+    """The first entry of ``column`` (sorted by ``height``, see
+    :func:`by_column`) at or above ``low``, and the column's end."""
+    lo, hi = start[column], start[column + 1]
+    return lo + np.searchsorted(height[lo:hi], low), hi
+
+
+@_jit
 def _bucket(data, x0, y0, cell, nx, ny, order):
     """:func:`by_column` of all the points into ``order``; returns where each
     column starts and the points' coordinates in that order (3, P)."""
@@ -200,19 +219,12 @@ def _search(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, p
     Returns how many were found."""
     r2 = radius * radius
     box = radius * _BOX
-    ix0 = min(max(int(np.floor((qx - box - x0) / cell)), 0), nx - 1)
-    ix1 = min(max(int(np.floor((qx + box - x0) / cell)), 0), nx - 1)
-    iy0 = min(max(int(np.floor((qy - box - y0) / cell)), 0), ny - 1)
-    iy1 = min(max(int(np.floor((qy + box - y0) / cell)), 0), ny - 1)
+    ix0, ix1, iy0, iy1 = column_range(qx, qy, box, x0, y0, cell, nx, ny)
     kept = 0
     last2 = np.inf  # squared distance of the k-th kept
     for iy in range(iy0, iy1 + 1):
         for ix in range(ix0, ix1 + 1):
-            c = ix + nx * iy
-            lo, hi = start[c], start[c + 1]
-            if lo == hi:
-                continue
-            t = lo + np.searchsorted(points[2, lo:hi], qz - box)
+            t, hi = rising_from(start, points[2], ix + nx * iy, qz - box)
             while t < hi and points[2, t] <= qz + box:
                 x, y, z = points[0, t], points[1, t], points[2, t]
                 t += 1
