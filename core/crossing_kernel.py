@@ -36,7 +36,7 @@ import numba
 import numpy as np
 
 from .errors import Cancelled
-from .neighbours_kernel import by_column, column_range, rising_from
+from .neighbours_kernel import by_column, column_grid, column_range, rising_from
 from .parallel import map_blocks, row_blocks
 
 #: Quantile of the reach that splits the quads into the two tiers.
@@ -99,7 +99,7 @@ def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray,
     small = reach <= small_reach
     # Columns twice the small tier's reach wide: a small quad's search spans
     # two or three of them along each axis.
-    x0, y0, cell, nx, ny = _grid(centre, 2 * small_reach, len(centre))
+    x0, y0, cell, nx, ny = column_grid(centre, 2 * small_reach)
     tiers = []
     for members in (np.flatnonzero(small), np.flatnonzero(~small)):
         order, start, ball = _bucket(members, centre, reach, x0, y0, cell, nx, ny)
@@ -131,21 +131,6 @@ def warm_up() -> int:
                                np.array([True, True, False, False]))
     assert len(pairs) == 2, pairs
     return len(pairs)
-
-
-def _grid(centre: np.ndarray, cell: float, n: int) -> tuple[float, float, float, int, int]:
-    """Origin, side and size of the columns' grid over the centres' x and y.
-
-    The side is widened where the grid would have more columns than a few
-    per quad (quads scattered over a city in the later rounds): wider
-    columns only make the searches look at more quads, never miss one.
-    """
-    x0, y0 = float(centre[:, 0].min()), float(centre[:, 1].min())
-    width = max(float(centre[:, 0].max()) - x0, float(centre[:, 1].max()) - y0, 0.0)
-    cell = max(cell, 1e-9, width / np.sqrt(max(4.0 * n, 1 << 16)))
-    nx = int(np.floor((float(centre[:, 0].max()) - x0) / cell)) + 1
-    ny = int(np.floor((float(centre[:, 1].max()) - y0) / cell)) + 1
-    return x0, y0, cell, nx, ny
 
 
 @_jit

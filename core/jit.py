@@ -1,11 +1,14 @@
 """Optional compiled kernels (numba).
 
 A few steps are loops that numpy can only write as chains of whole-array
-passes over large temporaries: the crossing search of the projection
-(:mod:`core.crossing_kernel`) tests millions of face pairs, each in a few
-dozen arithmetic operations. numba compiles such loops; the issue that asked
-for speed allows a compiled kernel only where numpy cannot reach the
-target, and only with the same results.
+passes over large temporaries, or searches that a KD-tree answers more
+generally than city data need: the crossing search of the projection
+(:mod:`core.crossing_kernel`, millions of face pairs, each a few dozen
+arithmetic operations), the nearest data points (:mod:`core.neighbours_kernel`,
+a grid of columns) and the points a node tries (:mod:`core.projection_kernel`).
+numba compiles such loops; the issue that asked for speed allows a compiled
+kernel only where numpy cannot reach the target, and only with the same
+results.
 
 So every kernel has a numpy twin that stays the reference: the kernel does
 the same floating-point operations in the same order (numba compiles
@@ -68,7 +71,7 @@ def kernels(name: str, size: int | None = None) -> ModuleType | None:
     Also None for work of ``size`` below :data:`WORTHWHILE` elements while
     the module is not loaded: importing numba and loading the compiled code
     take about 0.4 s and 100 MB once per process, more than small data
-    gain (Delft at 0.5 m: 0.6 -> 1.0 s end to end in a fresh process).
+    gain (Delft at 1 m took 0.59 -> 1.04 s end to end in a fresh process).
     """
     if not enabled():
         return None

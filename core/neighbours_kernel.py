@@ -58,21 +58,10 @@ class ColumnIndex:
     def __init__(self, data: np.ndarray, cell: float):
         self.data = np.ascontiguousarray(data, dtype=np.float64)
         n = len(self.data)
-        if n:
-            low = [float(self.data[:, c].min()) for c in range(2)]
-            high = [float(self.data[:, c].max()) for c in range(2)]
-        else:
-            low = high = [0.0, 0.0]
-        # No more columns than a few per point: sparse data over a wide
-        # extent get wider columns (a search then looks at more points).
-        width = max(high[0] - low[0], high[1] - low[1], 0.0)
-        cell = max(float(cell), 1e-9, width / np.sqrt(max(4.0 * n, 1 << 16)))
-        self.x0, self.y0, self.cell = low[0], low[1], cell
-        self.nx = int(np.floor((high[0] - low[0]) / cell)) + 1
-        self.ny = int(np.floor((high[1] - low[1]) / cell)) + 1
+        self.x0, self.y0, self.cell, self.nx, self.ny = column_grid(self.data, cell)
         # 32-bit point numbers where they fit: 4 bytes a point less to hold.
         self.order = np.empty(n, dtype=np.int32 if n < 2**31 else np.intp)
-        self.start, self.points = _bucket(self.data, self.x0, self.y0, cell, self.nx, self.ny, self.order)
+        self.start, self.points = _bucket(self.data, self.x0, self.y0, self.cell, self.nx, self.ny, self.order)
 
     def nearest(self, at: np.ndarray, k: int, upper: float = np.inf,
                 workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -105,6 +94,31 @@ class ColumnIndex:
         else:
             map_blocks(fill, row_blocks(len(at), max(1, min(_BLOCK, -(-len(at) // thread_count())))))
         return dist, idx
+
+
+def column_grid(xyz: np.ndarray, cell: float) -> tuple[float, float, float, int, int]:
+    """Origin, side and size (x0, y0, cell, nx, ny) of a grid of columns
+    ``cell`` wide over the points ``xyz`` (N, 3).
+
+    No more columns than a few per point: sparse points over a wide extent
+    (quads scattered over a city) get wider columns, which only make the
+    searches look at more points, never miss one.
+
+    Examples
+    --------
+    >>> column_grid(np.array([[0.0, 0, 0], [10, 4, 0]]), 2.0)
+    (0.0, 0.0, 2.0, 6, 3)
+    """
+    if len(xyz):
+        low = [float(xyz[:, c].min()) for c in range(2)]
+        high = [float(xyz[:, c].max()) for c in range(2)]
+    else:
+        low = high = [0.0, 0.0]
+    width = max(high[0] - low[0], high[1] - low[1], 0.0)
+    cell = max(float(cell), 1e-9, width / np.sqrt(max(4.0 * len(xyz), 1 << 16)))
+    nx = int(np.floor((high[0] - low[0]) / cell)) + 1
+    ny = int(np.floor((high[1] - low[1]) / cell)) + 1
+    return low[0], low[1], cell, nx, ny
 
 
 def nearest_in(index: ColumnIndex, at: np.ndarray, k: int, upper: float = np.inf, workers: int | None = None):
