@@ -274,3 +274,22 @@ def test_two_workers_from_a_background_task_as_the_dialog_runs_it(processing, di
     _, single_blocks = read_layer(tmp_path / "single.gpkg", "blocks")
     assert sorted((f["block_id"], f["volume"]) for f in tiled_blocks) == \
         sorted((f["block_id"], f["volume"]) for f in single_blocks)
+
+
+def test_the_compiled_kernels_run_inside_qgis_with_the_same_blocks(processing, district, tmp_path, monkeypatch):
+    # numba inside QGIS's Python, the plugin imported as urbanvox.core (its own
+    # kernel cache): the same blocks as the numpy code. "always": the district
+    # is below the size from which the kernels load on their own.
+    from urbanvox.core import jit
+
+    rows = {}
+    for switch in ("0", "always"):
+        monkeypatch.setenv("URBANVOX_JIT", switch)
+        gpkg = tmp_path / f"jit-{switch}.gpkg"
+        processing.run("urbanvox:reconstructfrompointcloud",
+                       {"INPUT": str(district.laz), "VOXEL_SIZE": 1.0, **gpkg_outputs(gpkg)})
+        _, features = read_layer(gpkg, "blocks")
+        rows[switch] = sorted((f["block_id"], f["volume"], f["surface_area"], f["top_z"]) for f in features)
+    assert len(rows["0"]) > 20 and rows["always"] == rows["0"]
+    assert all(jit._loaded.get(name) is not None for name in jit.KERNELS), jit._loaded
+    assert jit.failures == []
