@@ -53,10 +53,11 @@ def enabled() -> bool:
     Examples
     --------
     >>> import os
+    >>> before = os.environ.get("URBANVOX_JIT")
     >>> os.environ["URBANVOX_JIT"] = "0"
     >>> enabled()
     False
-    >>> del os.environ["URBANVOX_JIT"]
+    >>> _ = os.environ.pop("URBANVOX_JIT") if before is None else os.environ.update(URBANVOX_JIT=before)
     """
     return os.environ.get("URBANVOX_JIT", "1").strip().lower() not in ("0", "false", "no", "off")
 
