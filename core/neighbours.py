@@ -152,7 +152,7 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float) -> np.nd
     distance = np.full(len(points), np.inf)
     searched = False
     for tree in trees:
-        if _size(tree) == 0 or len(points) == 0:
+        if tree.n == 0 or len(points) == 0:
             continue
         if not searched:
             distance = nearest_within(tree, points, np.inf)
@@ -175,11 +175,6 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float) -> np.nd
         np.minimum(distance, found, out=distance)
     distance[np.isinf(distance)] = np.nan
     return distance
-
-
-def _size(tree) -> int:
-    """Points in a KD-tree or a compiled index."""
-    return tree.n if isinstance(tree, cKDTree) else len(tree.data)
 
 
 def nearest_within(tree, points: np.ndarray, upper: float) -> np.ndarray:

@@ -63,6 +63,11 @@ class ColumnIndex:
         self.order = np.empty(n, dtype=np.int32 if n < 2**31 else np.intp)
         self.start, self.points = _bucket(self.data, self.x0, self.y0, self.cell, self.nx, self.ny, self.order)
 
+    @property
+    def n(self) -> int:
+        """Points indexed (as ``cKDTree.n``)."""
+        return len(self.data)
+
     def nearest(self, at: np.ndarray, k: int, upper: float = np.inf,
                 workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The ``k`` nearest data points of every point ``at`` (see the module
