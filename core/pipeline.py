@@ -264,17 +264,17 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     else:
         ground = ground - lower
         building = building - lower
-    # The KD-trees over the points (one over the building points serves the
+    # The searches over the points (one over the building points serves the
     # elimination, the projection and the distances measured at the end; one
     # over the ground points those distances) are built on a thread of their
     # own while the voxel steps run, which mostly use one core: 1.4 s of
-    # builds on the 1 km city. The trees hold these arrays, not copies of
-    # them: nothing below writes to them. With numba, the projection and the
-    # distances search a compiled index of the building points instead
-    # (neighbours.point_index), twice as fast; the ground tree stays, since
-    # the distances of roofs to the ground are long searches, which the
-    # KD-tree does best.
-    building_tree = in_background(search_tree, building)
+    # KD-tree builds on the 1 km city. They hold these arrays, not copies of
+    # them: nothing below writes to them. With numba the building points get
+    # a compiled index of columns instead of a KD-tree
+    # (neighbours.point_index), faster to build and to search; the ground
+    # keeps its KD-tree, since the distances of roofs to the ground are long
+    # searches, which the KD-tree does best.
+    building_search = in_background(point_index, building, COLUMN_VOXELS * h)
     ground_tree = in_background(search_tree, ground)
     lap("grid")
 
@@ -303,15 +303,9 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     lap("blocks")
 
     report(0.6, "Eliminating unsupported boundary voxels")
-    # The searches over the building points: the tree, and with numba a
-    # compiled index, which answers the nearest-point searches of the
-    # elimination, the projection and the distances at the end faster (the
-    # tree then goes after the elimination: one of them is held).
-    building_tree = building_tree.result()
-    building_search = point_index(building, COLUMN_VOXELS * h, building_tree)
+    building_search = building_search.result()
     eliminate_unsupported(labels, grid, building, params.support, extrude_roofs=airborne,
-                          is_cancelled=is_cancelled, tree=building_tree, index=building_search)
-    del building_tree
+                          is_cancelled=is_cancelled, search=building_search)
     make_well_composed(labels, is_cancelled=is_cancelled)
     blocks, table, dropped_after = _blocks_above_thresholds(labels, grid, thresholds, is_cancelled)
     lap("eliminate")

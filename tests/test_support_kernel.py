@@ -1,0 +1,170 @@
+"""The elimination's support test: the compiled kernel (core.support_kernel)
+against the KD-tree searches (core.eliminate), and both against a brute
+force over every data point."""
+import numpy as np
+import pytest
+
+from core.classify import AIR, BUILDING, GROUND
+from core.eliminate import _ball_2d, _ball_3d, eliminate_unsupported, supported_above, supported_near
+from core.grid import VoxelGrid
+from core.neighbours import search_tree
+
+
+@pytest.fixture
+def kernel(compiled):
+    return compiled("support_kernel")
+
+
+def in_chunks(test):
+    """``test`` run on blocks of 100 faces: its (faces x points) tables stay small."""
+    def run(points, centre, axis, h, support):
+        return np.concatenate([test(points, centre[i:i + 100], axis[i:i + 100], h, support)
+                               for i in range(0, len(centre), 100)])
+    return run
+
+
+@in_chunks
+def brute_near(points, centre, axis, h, support):
+    """Any point strictly in the ball (scipy's bound) within the support distance of the square."""
+    d = [points[None, :, c] - centre[:, None, c] for c in range(3)]
+    r = _ball_3d(h, support)
+    in_ball = (d[0] * d[0] + d[1] * d[1]) + d[2] * d[2] < r * r
+    term = [np.where(axis[:, None] == c, np.abs(d[c]), np.maximum(np.abs(d[c]) - 0.5 * h, 0.0)) for c in range(3)]
+    zone = (term[0] * term[0] + term[1] * term[1]) + term[2] * term[2] <= (support * h) * (support * h)
+    return (in_ball & zone).any(axis=1)
+
+
+@in_chunks
+def brute_above(points, centre, axis, h, support):
+    dx = points[None, :, 0] - centre[:, None, 0]
+    dy = points[None, :, 1] - centre[:, None, 1]
+    r = _ball_2d(h, support)
+    in_ball = dx * dx + dy * dy < r * r
+    across = np.where(axis[:, None] == 0, np.abs(dx), np.abs(dy))
+    along = np.maximum(np.where(axis[:, None] == 0, np.abs(dy), np.abs(dx)) - 0.5 * h, 0.0)
+    above = points[None, :, 2] >= centre[:, None, 2] - 0.5 * h
+    return (in_ball & above & (across * across + along * along <= (support * h) * (support * h))).any(axis=1)
+
+
+def faces_around(rng, points, n, h, lattice=False):
+    """Face centres and axes near the data, some exactly on a lattice of half voxels."""
+    centre = points[rng.integers(0, len(points), n)] + rng.normal(scale=0.7 * h, size=(n, 3))
+    if lattice:
+        centre = np.round(centre / (0.5 * h)) * (0.5 * h)
+    return centre, rng.integers(0, 3, n)
+
+
+@pytest.mark.parametrize("h,support,spacing", [(1.0, 0.6, 0.3), (0.5, 0.6, 0.05), (1.0, 0.3, 0.5)])
+def test_same_answers_as_the_tree_and_a_brute_force(kernel, h, support, spacing):
+    # Roofs, walls and scattered points; the dense case puts far more than
+    # 16 points in a face's ball, so the tree's search must widen.
+    rng = np.random.default_rng(int(spacing * 100))
+    side = min(20.0, 200 * spacing)
+    n_roof = int((side / spacing) ** 2)
+    roof = np.column_stack([rng.uniform(0, side, n_roof), rng.uniform(0, side, n_roof),
+                            8 + rng.normal(0, 0.05, n_roof)])
+    n_wall = int(side * 8 / spacing**2)
+    wall = np.column_stack([np.full(n_wall, side / 2) + rng.normal(0, 0.05, n_wall), rng.uniform(0, side, n_wall),
+                            rng.uniform(0, 8, n_wall)])
+    points = np.concatenate([roof, wall, rng.uniform(0, side, (300, 3)) * [1, 1, 8 / side]])
+    centre, axis = faces_around(rng, points, 4000, h)
+    expected = brute_near(points, centre, axis, h, support)
+    assert 0.05 < expected.mean() < 0.95  # both answers are common
+    index = kernel.ColumnIndex(points, 1.5 * h)
+    ball = _ball_3d(h, support)
+    assert np.array_equal(supported_near(search_tree(points), points, centre, axis, h, support), expected)
+    assert np.array_equal(kernel.supported_near(index, centre, axis, h, support, ball), expected)
+    wall_faces = axis < 2
+    expected = brute_above(points, centre[wall_faces], axis[wall_faces], h, support)
+    assert 0.05 < expected.mean() < 0.95
+    got = supported_above(search_tree(points[:, :2]), points, centre[wall_faces], axis[wall_faces], h, support)
+    assert np.array_equal(got, expected)
+    got = kernel.supported_above(index, centre[wall_faces], axis[wall_faces], h, support, _ball_2d(h, support))
+    assert np.array_equal(got, expected)
+
+
+def test_points_on_the_bounds_of_the_ball_and_the_zone(kernel):
+    # Points and faces on a lattice: points exactly at the support distance
+    # (inside the zone, as <= has it) and exactly on the ball's bound
+    # (outside, as the KD-tree's strict bound has it).
+    h, support = 1.0, 0.5
+    rng = np.random.default_rng(3)
+    points = np.round(rng.uniform(0, 8, (3000, 3)) * 4) / 4
+    centre, axis = faces_around(rng, points, 20_000, h, lattice=True)
+    expected = brute_near(points, centre, axis, h, support)
+    index = kernel.ColumnIndex(points, 1.5 * h)
+    assert np.array_equal(supported_near(search_tree(points), points, centre, axis, h, support), expected)
+    assert np.array_equal(kernel.supported_near(index, centre, axis, h, support, _ball_3d(h, support)), expected)
+    walls = axis < 2
+    expected = brute_above(points, centre[walls], axis[walls], h, support)
+    got = kernel.supported_above(index, centre[walls], axis[walls], h, support, _ball_2d(h, support))
+    assert np.array_equal(got, expected)
+    assert np.array_equal(supported_above(search_tree(points[:, :2]), points, centre[walls], axis[walls], h,
+                                          support), expected)
+
+
+def test_a_point_on_the_ball_is_out_and_a_point_on_the_zone_is_in(kernel):
+    # Distances exact in binary: with support 0.25 the 3-D ball has radius
+    # 0.75, and a point at (0.25, 0.5, 0.5) from the centre of a face across
+    # x is on it (out, as the KD-tree's strict bound has it) and on the
+    # zone's bound (0.25 across, at the square's corner: in). With support
+    # 0.375 the plan ball has radius 0.625 and (0.375, 0.5) is on both. A
+    # quarter nearer along y, the points are in.
+    h = 1.0
+    centre, axis = np.zeros((1, 3)), np.array([0])
+    for y, expected in ((0.5, False), (0.25, True)):
+        support, points = 0.25, np.array([[0.25, y, 0.5]])
+        index = kernel.ColumnIndex(points, 1.5 * h)
+        assert brute_near(points, centre, axis, h, support).tolist() == [expected]
+        assert supported_near(search_tree(points), points, centre, axis, h, support).tolist() == [expected]
+        assert kernel.supported_near(index, centre, axis, h, support, _ball_3d(h, support)).tolist() == [expected]
+        support, points = 0.375, np.array([[0.375, y, 2.0]])
+        index = kernel.ColumnIndex(points, 1.5 * h)
+        assert brute_above(points, centre, axis, h, support).tolist() == [expected]
+        got = supported_above(search_tree(points[:, :2]), points, centre, axis, h, support)
+        assert got.tolist() == [expected]
+        got = kernel.supported_above(index, centre, axis, h, support, _ball_2d(h, support))
+        assert got.tolist() == [expected]
+    # Half a voxel below the face's centre is still above it; lower is not.
+    for z, expected in ((-0.5, True), (-0.5 - 1e-9, False)):
+        points = np.array([[0.5, 0.0, z]])
+        index = kernel.ColumnIndex(points, 1.5 * h)
+        got = kernel.supported_above(index, centre, axis, h, 0.5, _ball_2d(h, 0.5))
+        assert got.tolist() == [expected]
+        got = supported_above(search_tree(points[:, :2]), points, centre, axis, h, 0.5)
+        assert got.tolist() == [expected]
+
+
+def test_a_supporting_point_behind_many_nearer_ones_counts():
+    # 40 points nearer to the face's centre than the supporting one, all
+    # 0.3 in front of the face (past the support distance): the 16 nearest
+    # do not decide, the widened search finds the point.
+    h, support = 1.0, 0.2
+    in_front = np.column_stack([np.full(40, 0.3), np.linspace(-0.3, 0.3, 40), np.zeros(40)])
+    support_point = np.array([[0.15, 0.45, 0.45]])  # 0.15 in front, over the square
+    points = np.concatenate([in_front, support_point])
+    centre, axis = np.zeros((1, 3)), np.array([0])
+    assert np.linalg.norm(support_point) > np.linalg.norm(in_front, axis=1).max()
+    assert np.linalg.norm(support_point) < _ball_3d(h, support)
+    assert supported_near(search_tree(points), points, centre, axis, h, support).tolist() == [True]
+    assert supported_near(search_tree(in_front), in_front, centre, axis, h, support).tolist() == [False]
+
+
+def test_the_elimination_removes_the_same_voxels_with_the_kernel(kernel):
+    # A block whose data covers part of its faces, elimination passes and all.
+    h = 0.5
+    g = VoxelGrid(np.zeros(3), np.zeros(3), h, (24, 24, 16))
+    labels = np.full(g.shape, AIR, np.uint8)
+    labels[:, :, 0] = GROUND
+    labels[4:20, 4:20, 1:12] = BUILDING
+    rng = np.random.default_rng(5)
+    roof = np.column_stack([rng.uniform(2.5, 9, 4000), rng.uniform(2, 9.5, 4000), np.full(4000, 5.6)])
+    wall = np.column_stack([np.full(2000, 2.3), rng.uniform(2, 10, 2000), rng.uniform(0.5, 5.5, 2000)])
+    points = np.concatenate([roof, wall])
+    for extrude in (False, True):
+        numpy_labels, kernel_labels = labels.copy(), labels.copy()
+        removed = eliminate_unsupported(numpy_labels, g, points, extrude_roofs=extrude, search=search_tree(points))
+        assert removed > 0
+        index = kernel.ColumnIndex(points, 1.5 * h)
+        assert eliminate_unsupported(kernel_labels, g, points, extrude_roofs=extrude, search=index) == removed
+        assert np.array_equal(kernel_labels, numpy_labels)
