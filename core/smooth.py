@@ -30,7 +30,7 @@ from scipy import sparse
 from .errors import Cancelled
 from .quality import FaceState, accept_moves
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel, unique_nodes
-from .topology import changed_rows, sorted_unique
+from .topology import changed_rows, sorted_unique, touching
 
 
 @dataclass
@@ -168,11 +168,20 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     """
     a, b = model.regions[:, 0], model.regions[:, 1]
     n = len(model.nodes)
-    blocks = CatmullClarkStep(model.quads.compress((a > 0) | (b > 0), axis=0), n)
-    ground = CatmullClarkStep(model.quads.compress((a == GROUND_REGION) | (b == GROUND_REGION), axis=0), n)
-    # Each node follows one surface: its block's, else the ground's.
-    from_blocks = roles.on_block[blocks.nodes]
-    from_ground = ~roles.on_block[ground.nodes]
+    # Each node follows one surface: its block's, else the ground's. A
+    # surface's step only needs the faces around the nodes that follow it
+    # and move: a node's new position comes from its own faces and edges,
+    # summed in the same order without the others. That leaves out the
+    # ground's faces under the blocks and on the domain's bottom and sides,
+    # half of them on a city.
+    follow_blocks = roles.movable & roles.on_block
+    follow_ground = roles.movable & ~roles.on_block
+    blocks = CatmullClarkStep(model.quads.compress(((a > 0) | (b > 0)) & touching(follow_blocks, model.quads),
+                                                   axis=0), n)
+    ground = CatmullClarkStep(model.quads.compress(((a == GROUND_REGION) | (b == GROUND_REGION))
+                                                   & touching(follow_ground, model.quads), axis=0), n)
+    from_blocks = follow_blocks[blocks.nodes]
+    from_ground = follow_ground[ground.nodes]
     keep = roles.fixed_axes | ~roles.movable[:, None]
     nodes = model.nodes.copy()
     stats = {"moved": [], "refused": []}

@@ -72,3 +72,35 @@ def test_dense_unique_and_rank_in_are_the_sorting_ones():
         position = {v: i for i, v in enumerate(wanted.tolist())}
         expected = np.array([position.get(v, -1) for v in values.ravel().tolist()]).reshape(values.shape)
         assert np.array_equal(rank_in(values, wanted), expected)
+
+
+def test_each_surface_is_stepped_on_the_faces_around_its_moving_nodes_only():
+    # smooth() leaves out the faces that touch no node following that
+    # surface and moving (the ground under the blocks, the domain's bottom
+    # and sides): the positions are those of a step over all its faces, to
+    # the last bit, pass after pass.
+    from core.quality import accept_moves
+    from core.smooth import NodeRoles, smooth
+
+    rng = np.random.default_rng(4)
+    regions = np.full((10, 9, 7), AIR_REGION, dtype=np.int32)
+    regions[:, :, :2] = GROUND_REGION
+    regions[2:5, 2:6, 2:5] = 1
+    regions[6:9, 1:4, 2:4] = 2
+    grid = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, regions.shape)
+    model = SurfaceModel.from_regions(grid, regions)
+    model.nodes[:] = model.nodes + rng.normal(scale=0.05, size=model.nodes.shape)
+    roles = NodeRoles.of(model, np.zeros(3), np.asarray(regions.shape, float))
+    got, _ = smooth(model, roles, passes=3)
+    a, b = model.regions[:, 0], model.regions[:, 1]
+    blocks = CatmullClarkStep(model.quads[(a > 0) | (b > 0)], len(model.nodes))
+    ground = CatmullClarkStep(model.quads[(a == GROUND_REGION) | (b == GROUND_REGION)], len(model.nodes))
+    keep = roles.fixed_axes | ~roles.movable[:, None]
+    nodes = model.nodes.copy()
+    for _ in range(3):
+        target = nodes.copy()
+        target[blocks.nodes[roles.on_block[blocks.nodes]]] = blocks(nodes)[roles.on_block[blocks.nodes]]
+        target[ground.nodes[~roles.on_block[ground.nodes]]] = ground(nodes)[~roles.on_block[ground.nodes]]
+        nodes, _ = accept_moves(nodes, np.where(keep, nodes, target), model.quads, 0.2)
+    assert roles.movable.sum() > 100 and not np.array_equal(got, model.nodes)
+    assert np.array_equal(got, nodes)
