@@ -101,24 +101,20 @@ def _near(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, s
         cx, cy, cz, a = centre[f, 0], centre[f, 1], centre[f, 2], axis[f]
         ix0, ix1, iy0, iy1 = column_range(cx, cy, box, x0, y0, cell, nx, ny)
         found = False
-        for iy in range(iy0, iy1 + 1):
-            for ix in range(ix0, ix1 + 1):
-                t, end = rising_from(start, points[2], ix + nx * iy, cz - box)
-                while t < end and points[2, t] <= cz + box:
-                    dx, dy, dz = points[0, t] - cx, points[1, t] - cy, points[2, t] - cz
-                    t += 1
-                    if (dx * dx + dy * dy) + dz * dz >= r_outer2:
-                        continue  # outside the ball, as the KD-tree's bound decides
-                    # Across the face the distance counts, along it what lies past its edge.
-                    gx, gy, gz = abs(dx), abs(dy), abs(dz)
-                    tx = gx if a == 0 else max(gx - half, 0.0)
-                    ty = gy if a == 1 else max(gy - half, 0.0)
-                    tz = gz if a == 2 else max(gz - half, 0.0)
-                    if (tx * tx + ty * ty) + tz * tz <= r_inner2:
-                        found = True
-                        break
-                if found:
-                    break
+        width = ix1 - ix0 + 1
+        for c in range(width * (iy1 - iy0 + 1)):
+            t, end = rising_from(start, points[2], ix0 + c % width + nx * (iy0 + c // width), cz - box)
+            while t < end and points[2, t] <= cz + box and not found:
+                dx, dy, dz = points[0, t] - cx, points[1, t] - cy, points[2, t] - cz
+                t += 1
+                if (dx * dx + dy * dy) + dz * dz >= r_outer2:
+                    continue  # outside the ball, as the KD-tree's bound decides
+                # Across the face the distance counts, along it what lies past its edge.
+                gx, gy, gz = abs(dx), abs(dy), abs(dz)
+                tx = gx if a == 0 else max(gx - half, 0.0)
+                ty = gy if a == 1 else max(gy - half, 0.0)
+                tz = gz if a == 2 else max(gz - half, 0.0)
+                found = (tx * tx + ty * ty) + tz * tz <= r_inner2
             if found:
                 break
         out[f] = found
@@ -133,23 +129,18 @@ def _above(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, 
         cx, cy, a = centre[f, 0], centre[f, 1], axis[f]
         ix0, ix1, iy0, iy1 = column_range(cx, cy, box, x0, y0, cell, nx, ny)
         found = False
-        for iy in range(iy0, iy1 + 1):
-            for ix in range(ix0, ix1 + 1):
-                # A column's points by height: those from half a voxel below the centre up.
-                t, end = rising_from(start, points[2], ix + nx * iy, centre[f, 2] - half)
-                while t < end:
-                    dx, dy = points[0, t] - cx, points[1, t] - cy
-                    t += 1
-                    if dx * dx + dy * dy >= r_outer2:
-                        continue
-                    gx, gy = abs(dx), abs(dy)
-                    across = gx if a == 0 else gy
-                    along = max((gy if a == 0 else gx) - half, 0.0)
-                    if across * across + along * along <= r_inner2:
-                        found = True
-                        break
-                if found:
-                    break
+        width = ix1 - ix0 + 1
+        for c in range(width * (iy1 - iy0 + 1)):
+            # A column's points by height: those from half a voxel below the centre up.
+            t, end = rising_from(start, points[2], ix0 + c % width + nx * (iy0 + c // width), centre[f, 2] - half)
+            while t < end and not found:
+                dx, dy = points[0, t] - cx, points[1, t] - cy
+                t += 1
+                if dx * dx + dy * dy >= r_outer2:
+                    continue
+                across = abs(dx) if a == 0 else abs(dy)
+                along = max((abs(dy) if a == 0 else abs(dx)) - half, 0.0)
+                found = across * across + along * along <= r_inner2
             if found:
                 break
         out[f] = found

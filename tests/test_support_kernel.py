@@ -47,7 +47,7 @@ def brute_above(points, centre, axis, h, support):
 
 
 def faces_around(rng, points, n, h, lattice=False):
-    """Face centres and axes near the data, some exactly on a lattice of half voxels."""
+    """Face centres and axes near the data (on a lattice of half voxels if ``lattice``)."""
     centre = points[rng.integers(0, len(points), n)] + rng.normal(scale=0.7 * h, size=(n, 3))
     if lattice:
         centre = np.round(centre / (0.5 * h)) * (0.5 * h)
