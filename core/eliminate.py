@@ -159,7 +159,8 @@ class _SupportTest:
         self.grid = grid
         self.support = support
         self.extrude_roofs = extrude_roofs
-        self.search = search if search is not None or not len(points) else search_tree(points)
+        # No data supports nothing (and a search over no points is not asked).
+        self.search = None if not len(points) else search if search is not None else search_tree(points)
         self._tree_2d = None
 
     def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:

@@ -173,7 +173,7 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     # and move: a node's new position comes from its own faces and edges,
     # summed in the same order without the others. That leaves out the
     # ground's faces under the blocks and on the domain's bottom and sides,
-    # half of them on a city.
+    # two thirds of them on the 1 km city (2.1 M -> 0.74 M faces).
     follow_blocks = roles.movable & roles.on_block
     follow_ground = roles.movable & ~roles.on_block
     blocks = CatmullClarkStep(model.quads.compress(((a > 0) | (b > 0)) & touching(follow_blocks, model.quads),

@@ -168,3 +168,16 @@ def test_the_elimination_removes_the_same_voxels_with_the_kernel(kernel):
         index = kernel.ColumnIndex(points, 1.5 * h)
         assert eliminate_unsupported(kernel_labels, g, points, extrude_roofs=extrude, search=index) == removed
         assert np.array_equal(kernel_labels, numpy_labels)
+
+
+def test_no_data_supports_no_face():
+    # A 2-voxel building and no building point: both voxels go, whatever search is given.
+    g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (1, 1, 4))
+    labels = np.full(g.shape, AIR, np.uint8)
+    labels[0, 0, 0], labels[0, 0, 1:3] = GROUND, BUILDING
+    none = np.zeros((0, 3))
+    for search in (None, search_tree(none)):
+        for extrude in (False, True):
+            removed = labels.copy()
+            assert eliminate_unsupported(removed, g, none, extrude_roofs=extrude, search=search) == 2
+            assert (removed[0, 0, 1:] == AIR).all()
