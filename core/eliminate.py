@@ -30,7 +30,7 @@ from . import jit
 from .classify import AIR, BUILDING
 from .errors import Cancelled
 from .grid import VoxelGrid
-from .neighbours import nearest_within, search_tree
+from .neighbours import kd_tree, nearest_within, search_tree
 from .parallel import map_blocks, row_blocks, thread_count
 
 #: Candidates examined per face first when the quick ball tests cannot decide
@@ -187,23 +187,26 @@ class _SupportTest:
         return supported
 
     def _near(self, centre: np.ndarray, axis: np.ndarray, h: float) -> np.ndarray:
-        if not isinstance(self.search, cKDTree):
-            found = jit.run("support_kernel", "supported_near", self.search, centre, axis, h, self.support,
-                            _ball_3d(h, self.support))
-            if found is not None:
-                return found
-            self.search = self.search.fallback or search_tree(self.points)  # the kernel failed
-        return supported_near(self.search, self.points, centre, axis, h, self.support)
+        found = self._compiled("supported_near", centre, axis, h, _ball_3d(h, self.support))
+        if found is not None:
+            return found
+        return supported_near(kd_tree(self.search, self.points), self.points, centre, axis, h, self.support)
 
     def _above(self, centre: np.ndarray, axis: np.ndarray, h: float) -> np.ndarray:
-        if not isinstance(self.search, cKDTree):
-            found = jit.run("support_kernel", "supported_above", self.search, centre, axis, h, self.support,
-                            _ball_2d(h, self.support))
-            if found is not None:
-                return found
+        found = self._compiled("supported_above", centre, axis, h, _ball_2d(h, self.support))
+        if found is not None:
+            return found
         if self._tree_2d is None:
             self._tree_2d = search_tree(self.points[:, :2])
         return supported_above(self._tree_2d, self.points, centre, axis, h, self.support)
+
+    def _compiled(self, function: str, centre: np.ndarray, axis: np.ndarray, h: float,
+                  ball: float) -> np.ndarray | None:
+        """``core.support_kernel.<function>`` on the column index, or None where
+        the search is a KD-tree or the kernel cannot run (then numpy's test)."""
+        if isinstance(self.search, cKDTree):
+            return None
+        return jit.run("support_kernel", function, self.search, centre, axis, h, self.support, ball)
 
 
 def _ball_3d(h: float, support: float) -> float:

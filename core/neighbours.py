@@ -56,6 +56,24 @@ def point_index(data: np.ndarray, cell: float, tree: cKDTree | None = None):
     return tree if tree is not None else search_tree(data)
 
 
+def kd_tree(search, data: np.ndarray) -> cKDTree:
+    """The KD-tree of a search over ``data``: the search itself, or for a
+    compiled index whose kernel failed (:func:`core.jit.run`), a tree built
+    once and kept on it.
+
+    Examples
+    --------
+    >>> tree = search_tree(np.zeros((2, 3)))
+    >>> kd_tree(tree, np.zeros((2, 3))) is tree
+    True
+    """
+    if isinstance(search, cKDTree):
+        return search
+    if search.fallback is None:
+        search.fallback = search_tree(data)
+    return search.fallback
+
+
 def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
             upper: float = np.inf, spare: int = 8, workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` nearest data points of every point ``at``, ties broken by coordinates.
@@ -82,9 +100,7 @@ def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
         found = jit.run("neighbours_kernel", "nearest_in", tree, at, k, upper, workers)
         if found is not None:
             return found
-        if tree.fallback is None:  # the kernel failed (core.jit.run): a KD-tree, built once
-            tree.fallback = search_tree(data)
-        tree = tree.fallback
+        tree = kd_tree(tree, data)  # the kernel failed (core.jit.run)
     k = min(k, len(data))
     workers = workers or thread_count()
     out_dist, out_idx = _nearest_of(tree, data, at, k, min(k + 1, len(data)), upper, workers)

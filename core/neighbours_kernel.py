@@ -22,7 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .parallel import map_blocks, row_blocks, thread_count
+from .parallel import map_blocks, thread_blocks
 
 #: Queries per call: blocks on all cores.
 _BLOCK = 1 << 15
@@ -104,7 +104,7 @@ class ColumnIndex:
         if workers == 1:
             fill(slice(0, len(at)))
         else:
-            map_blocks(fill, row_blocks(len(at), max(1, min(_BLOCK, -(-len(at) // thread_count())))))
+            map_blocks(fill, thread_blocks(len(at), _BLOCK))
         return dist, idx
 
 

@@ -106,6 +106,24 @@ def row_blocks(n: int, size: int) -> list[slice]:
     return [slice(start, min(start + size, n)) for start in range(0, n, size)]
 
 
+def thread_blocks(n: int, most: int | None = None) -> list[slice]:
+    """:func:`row_blocks` covering ``range(n)``, one per thread of the pool, or
+    more where a block would exceed ``most`` rows: for compiled loops, which
+    pay nothing per block and run each on a thread.
+
+    Examples
+    --------
+    >>> import os
+    >>> before = os.environ.get("URBANVOX_THREADS")
+    >>> os.environ["URBANVOX_THREADS"] = "2"
+    >>> thread_blocks(10), thread_blocks(10, most=3)[:2]
+    ([slice(0, 5, None), slice(5, 10, None)], [slice(0, 3, None), slice(3, 6, None)])
+    >>> _ = os.environ.pop("URBANVOX_THREADS") if before is None else os.environ.update(URBANVOX_THREADS=before)
+    """
+    size = max(1, -(-n // thread_count()))
+    return row_blocks(n, size if most is None else max(1, min(most, size)))
+
+
 def _executor(threads: int) -> ThreadPoolExecutor:
     """The pool of ``threads`` threads, made once (again if the count changes)."""
     global _pool

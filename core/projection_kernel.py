@@ -16,7 +16,7 @@ import numba
 import numpy as np
 
 from .neighbours_kernel import before
-from .parallel import map_blocks, row_blocks, thread_count
+from .parallel import map_blocks, thread_blocks
 
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -55,7 +55,7 @@ def closest_to_lines(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: 
     def fill(rows: slice) -> None:
         _closest(data, near, p, normal, rows.start, rows.stop, out)
 
-    map_blocks(fill, row_blocks(len(near), max(1, -(-len(near) // thread_count()))))
+    map_blocks(fill, thread_blocks(len(near)))
     return out
 
 

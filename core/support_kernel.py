@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import ColumnIndex, _jit, column_range, rising_from
-from .parallel import map_blocks, row_blocks, thread_count
+from .parallel import map_blocks, thread_blocks
 
 #: Faces per block of work on a core.
 _BLOCK = 1 << 14
@@ -78,7 +78,7 @@ def _on_blocks(kernel, index: ColumnIndex, centre: np.ndarray, axis: np.ndarray,
                index.x0, index.y0, index.cell, index.nx, index.ny, index.start, index.points, out)
 
     if len(centre):
-        map_blocks(fill, row_blocks(len(centre), max(1, min(_BLOCK, -(-len(centre) // thread_count())))))
+        map_blocks(fill, thread_blocks(len(centre), _BLOCK))
     return out
 
 

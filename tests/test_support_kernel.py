@@ -181,3 +181,30 @@ def test_no_data_supports_no_face():
             removed = labels.copy()
             assert eliminate_unsupported(removed, g, none, extrude_roofs=extrude, search=search) == 2
             assert (removed[0, 0, 1:] == AIR).all()
+
+
+def test_a_failing_kernel_leaves_the_elimination_to_numpy(kernel, monkeypatch):
+    # The kernel off after its failure (core.jit.run): the index's KD-tree
+    # takes over, the same voxels go, with a warning.
+    from core import jit
+
+    def broken(*args):
+        raise RuntimeError("cannot load the cache")
+
+    h = 1.0
+    g = VoxelGrid(np.zeros(3), np.zeros(3), h, (12, 12, 8))
+    labels = np.full(g.shape, AIR, np.uint8)
+    labels[:, :, 0] = GROUND
+    labels[2:10, 2:10, 1:6] = BUILDING
+    rng = np.random.default_rng(8)
+    points = np.column_stack([rng.uniform(2, 8, 3000), rng.uniform(2, 10, 3000), np.full(3000, 5.9)])
+    expected = labels.copy()
+    removed = eliminate_unsupported(expected, g, points, extrude_roofs=True, search=search_tree(points))
+    monkeypatch.setattr(kernel, "supported_near", broken)
+    monkeypatch.setattr(jit, "failures", [])
+    monkeypatch.setitem(jit._loaded, "support_kernel", kernel)  # put back as it was afterwards
+    index = kernel.ColumnIndex(points, 1.5 * h)
+    with pytest.warns(RuntimeWarning, match="support_kernel off"):
+        assert eliminate_unsupported(labels, g, points, extrude_roofs=True, search=index) == removed > 0
+    assert np.array_equal(labels, expected)
+    assert index.fallback is not None and len(jit.failures) == 1
