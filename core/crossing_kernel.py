@@ -32,11 +32,10 @@ from __future__ import annotations
 
 from typing import Callable
 
-import numba
 import numpy as np
 
 from .errors import Cancelled
-from .neighbours_kernel import by_column, column_grid, column_range, rising_from
+from .neighbours_kernel import by_column, column_grid, column_range, compiled, rising_from
 from .parallel import map_blocks, row_blocks
 
 #: Quantile of the reach that splits the quads into the two tiers.
@@ -46,7 +45,6 @@ _SEED_BLOCK = 1 << 15
 #: Relative margin on the sum of two reaches, as the numpy broad phase's radii.
 _MARGIN = 1 + 1e-9
 
-_jit = numba.njit(cache=True, nogil=True)
 
 
 def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, tri: np.ndarray,
@@ -133,7 +131,7 @@ def warm_up() -> int:
     return len(pairs)
 
 
-@_jit
+@compiled
 def _bucket(members, centre, reach, x0, y0, cell, nx, ny):
     """``members`` by column, each column's by height
     (:func:`core.neighbours_kernel.by_column`): the members in that order,
@@ -148,7 +146,7 @@ def _bucket(members, centre, reach, x0, y0, cell, nx, ny):
     return order, start, ball
 
 
-@_jit
+@compiled
 def _maximum(a, b):
     """``np.maximum(a, b)`` for a ``b`` that is not NaN (NaN wins, as in numpy)."""
     if a != a or a >= b:
@@ -156,7 +154,7 @@ def _maximum(a, b):
     return b
 
 
-@_jit
+@compiled
 def _edges_cross(positions, edges_of, face):
     """Whether an edge of triangle ``edges_of`` crosses triangle ``face``
     (node triples): :func:`core.intersect._edges_cross` for one pair, each
@@ -186,7 +184,7 @@ def _edges_cross(positions, edges_of, face):
     return False
 
 
-@_jit
+@compiled
 def _test_pair(qa, qb, positions, tri, lower, upper, in_focus, out, n):
     """Append to ``out`` (grown when full) the crossing triangle pairs of quads
     ``qa`` and ``qb``, the one in focus first; returns ``out`` and its count."""
@@ -216,7 +214,7 @@ def _test_pair(qa, qb, positions, tri, lower, upper, in_focus, out, n):
     return out, n
 
 
-@_jit
+@compiled
 def _search(seeds, centre, reach, is_seed, x0, y0, cell, nx, ny,
             order0, start0, ball0, reach0, order1, start1, ball1, reach1,
             positions, tri, lower, upper, in_focus):

@@ -27,9 +27,11 @@ from .parallel import map_blocks, thread_blocks
 #: Queries per call: blocks on all cores.
 _BLOCK = 1 << 15
 #: Widening of the searched box over the radius, for round-off in the columns' bounds.
-_BOX = 1 + 1e-9
+BOX = 1 + 1e-9
 
-_jit = numba.njit(cache=True, nogil=True)
+#: How every kernel of core is compiled: cached on disk (core.jit), and without the GIL,
+#: so that blocks of rows run on the pool's threads (core.parallel).
+compiled = numba.njit(cache=True, nogil=True)
 
 
 class ColumnIndex:
@@ -147,7 +149,7 @@ def warm_up() -> int:
     return 1
 
 
-@_jit
+@compiled
 def by_column(xyz, rows, x0, y0, cell, nx, ny, order):
     """Sort points by the column of the grid they fall in, each column's by
     height: the rows ``rows`` of ``xyz`` (N, 3), or all of them if ``rows``
@@ -190,7 +192,7 @@ def by_column(xyz, rows, x0, y0, cell, nx, ny, order):
     return start
 
 
-@_jit
+@compiled
 def column_range(x, y, span, x0, y0, cell, nx, ny):
     """First and last column along x, then along y, of the grid cells that
     the square of half-side ``span`` around (x, y) meets, clipped to the grid."""
@@ -201,7 +203,7 @@ def column_range(x, y, span, x0, y0, cell, nx, ny):
     return ix0, ix1, iy0, iy1
 
 
-@_jit
+@compiled
 def rising_from(start, height, column, low):
     """The first entry of ``column`` (sorted by ``height``, see
     :func:`by_column`) at or above ``low``, and the column's end."""
@@ -209,7 +211,7 @@ def rising_from(start, height, column, low):
     return lo + np.searchsorted(height[lo:hi], low), hi
 
 
-@_jit
+@compiled
 def _bucket(data, x0, y0, cell, nx, ny, order):
     """:func:`by_column` of all the points into ``order``; returns where each
     column starts and the points' coordinates in that order (3, P)."""
@@ -221,7 +223,7 @@ def _bucket(data, x0, y0, cell, nx, ny, order):
     return start, points
 
 
-@_jit
+@compiled
 def before(d1, x1, y1, z1, i1, d2, x2, y2, z2, i2):
     """Whether (d1, x1, y1, z1, i1) comes strictly before (d2, x2, y2, z2, i2):
     the order of :func:`core.neighbours.by_value_then_coordinates`, the
@@ -237,14 +239,14 @@ def before(d1, x1, y1, z1, i1, d2, x2, y2, z2, i2):
     return i1 < i2
 
 
-@_jit
+@compiled
 def _search(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, points, dist, idx, key, q):
     """The k nearest within ``radius`` of (qx, qy, qz) into row ``q`` of
     ``dist`` and ``idx`` (in order, ``key`` holding their coordinates);
     within means ``d^2 < radius^2`` if ``strict``, else ``d^2 <= radius^2``.
     Returns how many were found."""
     r2 = radius * radius
-    box = radius * _BOX
+    box = radius * BOX
     ix0, ix1, iy0, iy1 = column_range(qx, qy, box, x0, y0, cell, nx, ny)
     kept = 0
     last2 = np.inf  # squared distance of the k-th kept
@@ -282,7 +284,7 @@ def _search(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, p
     return kept
 
 
-@_jit
+@compiled
 def _nearest(at, start_row, stop_row, k, upper, first, x0, y0, cell, nx, ny, order, start, points, dist, idx):
     """Rows ``start_row:stop_row`` of :meth:`ColumnIndex.nearest`."""
     n = len(order)

@@ -12,13 +12,11 @@ the column), so the chosen points are the same; the tests compare both.
 """
 from __future__ import annotations
 
-import numba
 import numpy as np
 
-from .neighbours_kernel import before
+from .neighbours_kernel import before, compiled
 from .parallel import map_blocks, thread_blocks
 
-_jit = numba.njit(cache=True, nogil=True)
 
 
 def closest_to_lines(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray,
@@ -67,7 +65,7 @@ def warm_up() -> int:
     return 1
 
 
-@_jit
+@compiled
 def _off_line(x, y, z, px, py, pz, nx, ny, nz):
     """Distance of (x, y, z) to the line through p along n, as
     :func:`core.project._distance_to_line` computes it (``vectors.dot`` sums
@@ -78,7 +76,7 @@ def _off_line(x, y, z, px, py, pz, nx, ny, nz):
     return np.sqrt((ex * ex + ey * ey) + ez * ez)
 
 
-@_jit
+@compiled
 def _closest(data, near, p, normal, start, stop, out):
     """Rows ``start:stop`` of :func:`closest_to_lines`."""
     k, tries, n = near.shape[1], out.shape[1], len(data)

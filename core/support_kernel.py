@@ -19,13 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import ColumnIndex, _jit, column_range, rising_from
+from .neighbours_kernel import BOX, ColumnIndex, column_range, compiled, rising_from
 from .parallel import map_blocks, thread_blocks
 
 #: Faces per block of work on a core.
 _BLOCK = 1 << 14
-#: Widening of the searched box over the radius, for round-off in the columns' bounds.
-_BOX = 1 + 1e-9
 
 
 def supported_near(index: ColumnIndex, centre: np.ndarray, axis: np.ndarray, h: float, support: float,
@@ -92,11 +90,11 @@ def warm_up() -> int:
     return 1
 
 
-@_jit
+@compiled
 def _near(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, start, points, out):
     """Faces ``lo:hi`` of :func:`supported_near` into ``out``."""
     r_outer2 = r_outer * r_outer
-    box = r_outer * _BOX
+    box = r_outer * BOX
     for f in range(lo, hi):
         cx, cy, cz, a = centre[f, 0], centre[f, 1], centre[f, 2], axis[f]
         ix0, ix1, iy0, iy1 = column_range(cx, cy, box, x0, y0, cell, nx, ny)
@@ -120,11 +118,11 @@ def _near(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, s
         out[f] = found
 
 
-@_jit
+@compiled
 def _above(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, start, points, out):
     """Faces ``lo:hi`` of :func:`supported_above` into ``out``."""
     r_outer2 = r_outer * r_outer
-    box = r_outer * _BOX
+    box = r_outer * BOX
     for f in range(lo, hi):
         cx, cy, a = centre[f, 0], centre[f, 1], axis[f]
         ix0, ix1, iy0, iy1 = column_range(cx, cy, box, x0, y0, cell, nx, ny)

@@ -150,8 +150,8 @@ def test_a_supporting_point_behind_many_nearer_ones_counts():
     assert supported_near(search_tree(in_front), in_front, centre, axis, h, support).tolist() == [False]
 
 
-def test_the_elimination_removes_the_same_voxels_with_the_kernel(kernel):
-    # A block whose data covers part of its faces, elimination passes and all.
+def partly_supported_block():
+    """Grid (0.5 m voxels), labels and data of a block whose data covers part of its faces."""
     h = 0.5
     g = VoxelGrid(np.zeros(3), np.zeros(3), h, (24, 24, 16))
     labels = np.full(g.shape, AIR, np.uint8)
@@ -160,7 +160,13 @@ def test_the_elimination_removes_the_same_voxels_with_the_kernel(kernel):
     rng = np.random.default_rng(5)
     roof = np.column_stack([rng.uniform(2.5, 9, 4000), rng.uniform(2, 9.5, 4000), np.full(4000, 5.6)])
     wall = np.column_stack([np.full(2000, 2.3), rng.uniform(2, 10, 2000), rng.uniform(0.5, 5.5, 2000)])
-    points = np.concatenate([roof, wall])
+    return g, labels, np.concatenate([roof, wall])
+
+
+def test_the_elimination_removes_the_same_voxels_with_the_kernel(kernel):
+    # Elimination passes and all.
+    g, labels, points = partly_supported_block()
+    h = g.voxel_size
     for extrude in (False, True):
         numpy_labels, kernel_labels = labels.copy(), labels.copy()
         removed = eliminate_unsupported(numpy_labels, g, points, extrude_roofs=extrude, search=search_tree(points))
@@ -191,19 +197,13 @@ def test_a_failing_kernel_leaves_the_elimination_to_numpy(kernel, monkeypatch):
     def broken(*args):
         raise RuntimeError("cannot load the cache")
 
-    h = 1.0
-    g = VoxelGrid(np.zeros(3), np.zeros(3), h, (12, 12, 8))
-    labels = np.full(g.shape, AIR, np.uint8)
-    labels[:, :, 0] = GROUND
-    labels[2:10, 2:10, 1:6] = BUILDING
-    rng = np.random.default_rng(8)
-    points = np.column_stack([rng.uniform(2, 8, 3000), rng.uniform(2, 10, 3000), np.full(3000, 5.9)])
+    g, labels, points = partly_supported_block()
     expected = labels.copy()
     removed = eliminate_unsupported(expected, g, points, extrude_roofs=True, search=search_tree(points))
     monkeypatch.setattr(kernel, "supported_near", broken)
     monkeypatch.setattr(jit, "failures", [])
     monkeypatch.setitem(jit._loaded, "support_kernel", kernel)  # put back as it was afterwards
-    index = kernel.ColumnIndex(points, 1.5 * h)
+    index = kernel.ColumnIndex(points, 1.5 * g.voxel_size)
     with pytest.warns(RuntimeWarning, match="support_kernel off"):
         assert eliminate_unsupported(labels, g, points, extrude_roofs=True, search=index) == removed > 0
     assert np.array_equal(labels, expected)
