@@ -46,7 +46,6 @@ _SEED_BLOCK = 1 << 15
 _MARGIN = 1 + 1e-9
 
 
-
 def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, tri: np.ndarray,
                        positions: np.ndarray, rows: tuple[np.ndarray, np.ndarray], in_focus: np.ndarray,
                        is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:

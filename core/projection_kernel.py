@@ -18,7 +18,6 @@ from .neighbours_kernel import before, compiled
 from .parallel import map_blocks, thread_blocks
 
 
-
 def closest_to_lines(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray,
                      tries: int) -> np.ndarray:
     """The ``tries`` data points of each row of ``near`` closest to the line
