@@ -102,3 +102,25 @@ def test_sparse_data_over_a_wide_extent_get_wider_columns(kernel):
     assert index.nx * index.ny <= 1 << 17
     at = rng.uniform(0, 100_000, (200, 3))
     assert_same(data, nearest(search_tree(data), data, at, 4), index.nearest(at, 4))
+
+
+@pytest.mark.parametrize("k", [5, 8, 24])
+def test_square_roots_tie_where_squared_distances_do_not(kernel, k):
+    # A search skips the points beyond the k-th squared distance so far by
+    # more than a margin for round-off: a point at squared distance
+    # 1 + 2^-52 has distance 1.0, as one at squared distance 1, and comes
+    # first by its smaller x. Around each query, k - 1 points nearer, then
+    # these two (exact in binary), then farther ones.
+    rng = np.random.default_rng(k)
+    at = np.array([[64.0 * i, 64.0 * j, 0.0] for i in range(5) for j in range(5)])
+    tied = np.array([[1.0, 0, 0], [2.0**-26, 1, 0]])  # squared: 1 and 1 + 2^-52
+    assert (tied**2).sum(axis=1)[1] > 1.0 and np.sqrt((tied**2).sum(axis=1))[1] == 1.0
+    nearer, farther = rng.normal(size=(2, len(at), k - 1, 3))
+    nearer *= rng.uniform(0.1, 0.9, (len(at), k - 1, 1)) / np.linalg.norm(nearer, axis=2, keepdims=True)
+    farther *= rng.uniform(1.1, 1.4, (len(at), k - 1, 1)) / np.linalg.norm(farther, axis=2, keepdims=True)
+    data = (at[:, None, :] + np.concatenate([nearer, np.broadcast_to(tied, (len(at), 2, 3)), farther], axis=1)
+            ).reshape(-1, 3)
+    got = kernel.ColumnIndex(data, 1.0).nearest(at, k, 1.5)
+    assert_same(data, brute_force(data, at, k, 1.5), got)
+    assert np.array_equal(data[got[1][:, k - 1]] - at, np.broadcast_to(tied[1], at.shape))
+
