@@ -59,3 +59,25 @@ def test_least_axis_matches_lapack_on_planes_lines_and_blobs():
     # No isolated smallest eigenvalue: a fixed vector, not NaN.
     normal, values = least_axis(np.array([np.zeros((3, 3)), 2 * np.eye(3)]))
     assert normal.tolist() == [[0, 0, 1], [0, 0, 1]] and values.round(12).tolist() == [[0, 0, 0], [2, 2, 2]]
+
+
+def test_planes_fitted_once_per_data_point_are_those_fitted_each_time():
+    # The projection's tries ask planes at data points, often the same ones
+    # across tries: each is fitted once (project._PlaneCache), and is the
+    # plane mls_planes fits at that point alone, bit for bit.
+    from core.neighbours import search_tree
+    from core.project import _PLANE_POINTS, _PlaneCache, mls_planes
+
+    rng = np.random.default_rng(4)
+    data = np.column_stack([rng.uniform(0, 20, 4000), rng.uniform(0, 20, 4000), rng.normal(0, 0.05, 4000)])
+    data[:300, 2] = rng.uniform(0, 5, 300)  # a few points off the plane: some neighbourhoods tilt
+    tree = search_tree(data)
+    planes = _PlaneCache(data, tree, 0.5)
+    tries = [rng.integers(0, 2000, 3000), rng.integers(1000, 3000, 500), rng.integers(0, 4000, 200),
+             np.zeros(0, dtype=np.intp)]
+    for points in tries:
+        got = planes(points)
+        for one, expected in zip(got, mls_planes(data, tree, data.take(points, axis=0), 0.5, _PLANE_POINTS)):
+            assert np.array_equal(one, expected)
+    fitted = np.concatenate([known for known, *_ in planes.fitted])
+    assert len(fitted) == len(np.unique(np.concatenate(tries))) == len(np.unique(fitted))
