@@ -441,6 +441,9 @@ NOT_INSTALLED_TEXT = "not installed"
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "--child":
+        from core.heap import one_arena
+
+        one_arena()  # as the command line (python -m core) runs
         spec = json.loads(argv[1])
         report = run_case(spec)
         print("REPORT " + json.dumps(report, default=float))

@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 from .errors import Cancelled, UrbanvoxError
+from .heap import one_arena
 from .pipeline import ReconstructionParams, reconstruct_mesh, reconstruct_point_cloud
 from .tiles import TileOptions
 
@@ -55,6 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    one_arena()  # this process is the run's: its threads share the heap that reuses freed memory
     params = ReconstructionParams(voxel_size=args.voxel_size, smoothing_iterations=args.smoothing,
                                   project=not args.no_projection,
                                   extent=tuple(args.extent) if args.extent else None)

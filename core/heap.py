@@ -38,7 +38,7 @@ from typing import Iterator
 import numpy as np
 
 #: mallopt parameters (malloc.h) and glibc's defaults.
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD, _M_ARENA_MAX = -1, -3, -8
 _DEFAULT_TRIM, _DEFAULT_MMAP = 128 * 1024, 128 * 1024
 #: Largest value mallopt takes (a C int); larger blocks still come from mmap.
 _HIGH = 2**31 - 1
@@ -75,6 +75,23 @@ def _set_huge_pages(enabled: bool) -> bool | None:
     multiarray = getattr(getattr(np, "_core", None) or getattr(np, "core", None), "multiarray", None)
     setter = getattr(multiarray, "_set_madvise_hugepage", None)
     return None if setter is None else bool(setter(enabled))
+
+
+def one_arena() -> bool:
+    """Make every thread of this process allocate from one heap, as
+    :data:`WORKER_ENVIRONMENT` does for workers: for a process of its own
+    (the command line, the benchmarks), called before it starts threads.
+
+    glibc gives threads arenas of their own, and a thread's arena serves
+    blocks above 64 MB from fresh pages whatever :func:`reusing_freed_memory`
+    sets; numpy's large temporaries made on the row-block pool's threads
+    (:mod:`core.parallel`) and in scipy's query threads then fault their
+    memory in again at every step. glibc fixes the number of arenas when a
+    thread first needs one, so this is too late once threads have run; a
+    host process (QGIS) keeps its own policy. Returns whether it was set
+    (glibc only; ``tests/test_heap.py`` counts the page faults it saves).
+    """
+    return _LIBC is not None and bool(_LIBC.mallopt(_M_ARENA_MAX, 1))
 
 
 @contextmanager

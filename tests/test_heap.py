@@ -65,3 +65,47 @@ def test_numpy_huge_page_requests_are_off_during_a_run_only():
         assert heap._set_huge_pages(True) is True  # and back on after
     finally:
         heap._set_huge_pages(before)
+
+
+_THREAD_PROBE = """
+import resource, sys, threading
+import numpy as np
+from core.heap import one_arena, reusing_freed_memory
+
+if sys.argv[1] == "one":
+    set_ = one_arena()
+    assert set_
+faults = []
+
+def work():
+    # 100 MB made and freed on a new thread, three times: above the 64 MB a
+    # thread's own arena can hold, so there it comes from fresh pages each time.
+    for _ in range(3):
+        before = resource.getrusage(resource.RUSAGE_THREAD).ru_minflt
+        block = np.ones(100_000_000 // 8)
+        del block
+        faults.append(resource.getrusage(resource.RUSAGE_THREAD).ru_minflt - before)
+
+with reusing_freed_memory():
+    for _ in range(2):
+        thread = threading.Thread(target=work)
+        thread.start()
+        thread.join()
+print(sum(faults[1:]))
+"""
+
+
+@pytest.mark.parametrize("arena", ["one", "default"])
+def test_one_arena_lets_threads_reuse_the_freed_memory(arena):
+    # 100 MB is 24,400 pages: with one arena, every allocation after the
+    # first is served from the memory the first took; with an arena per
+    # thread, each faults its pages in again.
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("MALLOC_ARENA_MAX", None)
+    out = subprocess.run([sys.executable, "-c", _THREAD_PROBE, arena], cwd=ROOT, capture_output=True, text=True,
+                         env=env, check=True).stdout
+    faults = int(out)
+    if arena == "one":
+        assert faults < 2_000
+    else:
+        assert faults > 5 * 24_000
