@@ -145,7 +145,7 @@ def run_case(spec: dict) -> dict:
             del result
     if len(runs) > 1:
         report["runs"] = runs
-    report["peak_rss_mb"] = _rss_mb()  # the process's high-water mark: the first run's
+    report["peak_rss_mb"] = _rss_mb()  # the process's high-water mark, over all its runs
     if airborne:  # the run moved them: the world coordinates again, for what follows
         from core.readers.las import read_point_clouds
 
