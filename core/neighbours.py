@@ -15,13 +15,19 @@ in each thread of a row-block pool).
 """
 from __future__ import annotations
 
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence, Union
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from . import jit
 from .parallel import thread_count
+
+if TYPE_CHECKING:  # imports numba: only where a kernel runs (core.jit)
+    from .neighbours_kernel import ColumnIndex
+
+#: What the searches take: a KD-tree, or with numba a compiled index of columns (:func:`point_index`).
+PointSearch = Union[cKDTree, "ColumnIndex"]
 
 
 def search_tree(points: np.ndarray) -> cKDTree:
@@ -35,7 +41,7 @@ def search_tree(points: np.ndarray) -> cKDTree:
     return cKDTree(points, balanced_tree=False, compact_nodes=False)
 
 
-def point_index(data: np.ndarray, cell: float, tree: cKDTree | None = None):
+def point_index(data: np.ndarray, cell: float, tree: PointSearch | None = None) -> PointSearch:
     """What :func:`nearest` searches ``data`` with: with numba, a compiled
     index of columns ``cell`` wide (:class:`core.neighbours_kernel.ColumnIndex`,
     twice as fast, built in a tenth of the time); else ``tree``, or a new
@@ -56,7 +62,7 @@ def point_index(data: np.ndarray, cell: float, tree: cKDTree | None = None):
     return tree if tree is not None else search_tree(data)
 
 
-def kd_tree(search, data: np.ndarray) -> cKDTree:
+def kd_tree(search: PointSearch, data: np.ndarray) -> cKDTree:
     """The KD-tree of a search over ``data``: the search itself, or for a
     compiled index whose kernel failed (:func:`core.jit.run`), a tree built
     once and kept on it.
@@ -74,7 +80,7 @@ def kd_tree(search, data: np.ndarray) -> cKDTree:
     return search.fallback
 
 
-def nearest(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int,
+def nearest(tree: PointSearch, data: np.ndarray, at: np.ndarray, k: int,
             upper: float = np.inf, spare: int = 8, workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` nearest data points of every point ``at``, ties broken by coordinates.
 

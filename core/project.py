@@ -26,12 +26,11 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from . import jit
 from .errors import Cancelled
 from .intersect import undo_crossings
-from .neighbours import by_value_then_coordinates, nearest, point_index
+from .neighbours import PointSearch, by_value_then_coordinates, nearest, point_index
 from .parallel import map_blocks, on_pool, row_blocks
 from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
@@ -108,7 +107,7 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
     return normal
 
 
-def mls_planes(data: np.ndarray, tree: cKDTree, at: np.ndarray, sigma: float,
+def mls_planes(data: np.ndarray, tree: PointSearch, at: np.ndarray, sigma: float,
                k: int = _PLANE_POINTS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Weighted least-squares planes of the data around points ``at``.
 
@@ -214,7 +213,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
                   data: np.ndarray, voxel_size: float, threshold: float,
                   max_angle: float = 45.0, max_distance: float = 1.5, check_crossings: bool = True,
                   is_cancelled: Callable[[], bool] | None = None,
-                  tree: cKDTree | None = None) -> tuple[np.ndarray, dict]:
+                  tree: PointSearch | None = None) -> tuple[np.ndarray, dict]:
     """Project the ``select`` nodes onto ``data`` through MLS planes.
 
     Parameters
@@ -308,7 +307,7 @@ class _PlaneCache:
     first, another may try next (on the 1 km synthetic city, 6 % of the
     second and third tries)."""
 
-    def __init__(self, data: np.ndarray, tree, sigma: float):
+    def __init__(self, data: np.ndarray, tree: PointSearch, sigma: float):
         self.data, self.tree, self.sigma = data, tree, sigma
         #: Per call that fitted any: the data points (sorted), centres, normals, flatness.
         self.fitted: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
@@ -333,7 +332,7 @@ class _PlaneCache:
         return centre.take(which, axis=0), normal.take(which, axis=0), flat[which]
 
 
-def _candidates(tree: cKDTree, data: np.ndarray, p: np.ndarray, normal: np.ndarray, radius: float,
+def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.ndarray, radius: float,
                 tries: int, is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
     """The data points each node tries, best first (step 1 of the module doc).
 
