@@ -73,8 +73,7 @@ import numpy as np
 from core.heap import one_arena, reusing_freed_memory
 
 if sys.argv[1] == "one":
-    set_ = one_arena()
-    assert set_
+    assert one_arena()
 faults = []
 
 def work():

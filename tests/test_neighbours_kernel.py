@@ -123,4 +123,3 @@ def test_square_roots_tie_where_squared_distances_do_not(kernel, k):
     got = kernel.ColumnIndex(data, 1.0).nearest(at, k, 1.5)
     assert_same(data, brute_force(data, at, k, 1.5), got)
     assert np.array_equal(data[got[1][:, k - 1]] - at, np.broadcast_to(tied[1], at.shape))
-
