@@ -34,7 +34,7 @@ from .neighbours import PointSearch, by_value_then_coordinates, nearest, point_i
 from .parallel import map_blocks, on_pool, row_blocks
 from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
-from .surface import GROUND_REGION, SurfaceModel
+from .surface import GROUND_REGION, SurfaceModel, rank_in
 from .topology import changed_rows, touching
 from .vectors import cross, dot, length
 
@@ -318,8 +318,8 @@ class _PlaneCache:
         centre, normal, flat = np.empty((len(wanted), 3)), np.empty((len(wanted), 3)), np.empty(len(wanted), bool)
         missing = np.ones(len(wanted), dtype=bool)
         for known, *plane in self.fitted:
-            at = np.minimum(np.searchsorted(known, wanted), len(known) - 1)
-            found = missing & (known[at] == wanted)
+            at = rank_in(wanted, known)
+            found = missing & (at >= 0)
             for out, values in zip((centre, normal, flat), plane):
                 out[found] = values[at[found]]
             missing &= ~found

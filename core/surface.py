@@ -231,6 +231,8 @@ def rank_in(values: np.ndarray, wanted: Sequence[int]) -> np.ndarray:
     --------
     >>> rank_in(np.array([[7, -1], [3, 5]]), [5, 7, -1]).tolist()
     [[1, 2], [-1, 0]]
+    >>> rank_in(np.array([10**6, 4, 3]), [3, 10**6]).tolist()  # ids far apart, sorted
+    [1, -1, 0]
     """
     wanted = np.asarray(wanted, dtype=np.int64)
     values = np.asarray(values)
@@ -243,8 +245,11 @@ def rank_in(values: np.ndarray, wanted: Sequence[int]) -> np.ndarray:
         table = np.full(high - low + 3, -1, dtype=np.int64)
         table[wanted - low + 1] = np.arange(len(wanted))
         return table.take(np.clip(values.astype(np.int64) - (low - 1), 0, high - low + 2))
-    order = np.argsort(wanted)
-    ordered = wanted[order]
+    if (wanted[1:] > wanted[:-1]).all():  # already sorted (the projection's planes): no sort
+        order, ordered = np.arange(len(wanted)), wanted
+    else:
+        order = np.argsort(wanted)
+        ordered = wanted[order]
     at = np.minimum(np.searchsorted(ordered, values), len(wanted) - 1)
     return np.where(ordered[at] == values, order[at], -1)
 
