@@ -176,10 +176,12 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     # two thirds of them on the 1 km city (2.1 M -> 0.74 M faces).
     follow_blocks = roles.movable & roles.on_block
     follow_ground = roles.movable & ~roles.on_block
-    blocks = CatmullClarkStep(model.quads.compress(((a > 0) | (b > 0)) & touching(follow_blocks, model.quads),
-                                                   axis=0), n)
-    ground = CatmullClarkStep(model.quads.compress(((a == GROUND_REGION) | (b == GROUND_REGION))
-                                                   & touching(follow_ground, model.quads), axis=0), n)
+
+    def step(on_surface: np.ndarray, following: np.ndarray) -> CatmullClarkStep:
+        return CatmullClarkStep(model.quads.compress(on_surface & touching(following, model.quads), axis=0), n)
+
+    blocks = step((a > 0) | (b > 0), follow_blocks)
+    ground = step((a == GROUND_REGION) | (b == GROUND_REGION), follow_ground)
     from_blocks = follow_blocks[blocks.nodes]
     from_ground = follow_ground[ground.nodes]
     keep = roles.fixed_axes | ~roles.movable[:, None]
