@@ -64,6 +64,11 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     >>> node_normals(nodes, np.array([[0, 1, 2, 3]]), 4)[0]
     array([0., 0., 1.])
     """
+    if jit.kernels("projection_kernel", len(quads)) is not None:
+        # The same sums, in four passes instead of twelve (core.projection_kernel).
+        found = jit.run("projection_kernel", "node_normals", nodes, quads, n)
+        if found is not None:
+            return found
     normal = np.empty((3, len(quads)))
 
     def fill(rows: slice) -> None:
