@@ -6,8 +6,9 @@ generally than city data need: the crossing search of the projection
 (:mod:`core.crossing_kernel`, millions of face pairs, each a few dozen
 arithmetic operations), the nearest data points (:mod:`core.neighbours_kernel`,
 a grid of columns), the points a node tries (:mod:`core.projection_kernel`),
-the quads' quality under their best split (:mod:`core.quality_kernel`) and
-the elimination's support test (:mod:`core.support_kernel`).
+the quads' quality under their best split (:mod:`core.quality_kernel`),
+the elimination's support test (:mod:`core.support_kernel`) and the
+selections of moved nodes and the faces around them (:mod:`core.topology_kernel`).
 numba compiles such loops; the issue that asked for speed allows a compiled
 kernel only where numpy cannot reach the target, and only with the same
 results.
@@ -37,7 +38,8 @@ from types import ModuleType
 from .errors import Cancelled
 
 #: The kernel modules of core, each with a ``warm_up()`` (see :func:`warm_up`).
-KERNELS = ("crossing_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel", "support_kernel")
+KERNELS = ("crossing_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel", "support_kernel",
+           "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

@@ -15,6 +15,12 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from . import jit
+
+#: Rows from which the compiled selections run (core.topology_kernel): below,
+#: handing blocks to the threads costs more than numpy's passes.
+_KERNEL_ROWS = 1 << 16
+
 
 def touching(marked: np.ndarray, faces: np.ndarray) -> np.ndarray:
     """Which faces have a corner at a marked node: ``marked[faces].any(axis=1)``.
@@ -27,6 +33,10 @@ def touching(marked: np.ndarray, faces: np.ndarray) -> np.ndarray:
     >>> touching(np.array([False, True, False, False]), np.array([[0, 1, 2], [0, 2, 3]])).tolist()
     [True, False]
     """
+    if len(faces) >= _KERNEL_ROWS and jit.kernels("topology_kernel", len(faces)) is not None:
+        found = jit.run("topology_kernel", "touching", marked, faces)
+        if found is not None:
+            return found
     hit = marked[faces[:, 0]]
     for k in range(1, faces.shape[1]):
         hit |= marked[faces[:, k]]
@@ -116,6 +126,10 @@ def changed_rows(new: np.ndarray, old: np.ndarray) -> np.ndarray:
     >>> changed_rows(np.array([[0.0, 1, 2], [3, 4, 5]]), np.array([[0.0, 1, 2], [3, 4, 6]])).tolist()
     [False, True]
     """
+    if len(new) >= _KERNEL_ROWS and jit.kernels("topology_kernel", len(new)) is not None:
+        found = jit.run("topology_kernel", "changed_rows", new, old)
+        if found is not None:
+            return found
     return (new[:, 0] != old[:, 0]) | (new[:, 1] != old[:, 1]) | (new[:, 2] != old[:, 2])
 
 
