@@ -120,33 +120,47 @@ def _sum_into_nodes(quads, unit, normal):
     """Add the quads' ``unit`` normals into their nodes' ``normal`` (zeros),
     then make each sum a unit vector (zero where it is zero), with numpy's
     order of operations: per corner column, a sum over the quads in order
-    (a ``bincount``), added to the total; the length as ``np.linalg.norm``."""
-    n = len(normal)
-    # The first column's sums straight into the zeros: the same additions.
-    for m in range(len(quads)):
-        j = quads[m, 0]
-        normal[j, 0] += unit[m, 0]
-        normal[j, 1] += unit[m, 1]
-        normal[j, 2] += unit[m, 2]
-    column = np.empty((n, 3))
+    (a ``bincount``), added to the total; the length as ``np.linalg.norm``.
+
+    The first column's sums go straight into the zeros of ``normal``; the
+    others through a table of zeros, each column's added into ``normal``
+    once complete, and set back to zero. Adding a zero changes no sum (one
+    that starts from +0.0 never becomes -0.0), so a node's sums can be added
+    as often as it has quads: passes over the quads only, none over the
+    model's other nodes but the last."""
+    _add_column(quads, 0, unit, normal)
+    sums = np.zeros(normal.shape)
     for k in range(1, 4):
-        column[:] = 0.0
-        for m in range(len(quads)):
-            j = quads[m, k]
-            column[j, 0] += unit[m, 0]
-            column[j, 1] += unit[m, 1]
-            column[j, 2] += unit[m, 2]
-        for j in range(n):
-            normal[j, 0] += column[j, 0]
-            normal[j, 1] += column[j, 1]
-            normal[j, 2] += column[j, 2]
-    for j in range(n):
+        _add_column(quads, k, unit, sums)
+        _flush_column(quads, k, sums, normal)
+    for j in range(len(normal)):
         x, y, z = normal[j, 0], normal[j, 1], normal[j, 2]
         size = np.sqrt((x * x + y * y) + z * z)
         if size > 0:
             normal[j, 0], normal[j, 1], normal[j, 2] = x / size, y / size, z / size
         else:
             normal[j, 0], normal[j, 1], normal[j, 2] = 0.0, 0.0, 0.0
+
+
+@compiled
+def _add_column(quads, k, unit, into):
+    """Add each quad's ``unit`` row into the row of its corner ``k``, in quad order."""
+    for m in range(len(quads)):
+        j = quads[m, k]
+        into[j, 0] += unit[m, 0]
+        into[j, 1] += unit[m, 1]
+        into[j, 2] += unit[m, 2]
+
+
+@compiled
+def _flush_column(quads, k, sums, normal):
+    """Add the ``sums`` of the corners ``k`` into ``normal`` and set them back to zero."""
+    for m in range(len(quads)):
+        j = quads[m, k]
+        normal[j, 0] += sums[j, 0]
+        normal[j, 1] += sums[j, 1]
+        normal[j, 2] += sums[j, 2]
+        sums[j, 0], sums[j, 1], sums[j, 2] = 0.0, 0.0, 0.0
 
 
 @compiled
