@@ -284,10 +284,15 @@ def accept_moves(old: np.ndarray, new: np.ndarray, quads: np.ndarray, threshold:
             raise Cancelled()
         if len(check) == 0:
             break
-        _, q, normal = _split_quality(positions, sub.take(check, axis=0))
-        q_now[check], n_now[check] = q, normal
-        turned = np.einsum("ij,ij->i", normal, n_old.take(check, axis=0)) <= 0
-        bad = check[(q < floor[check] - 1e-12) | turned]
+        # All the faces (the first round): no gathers of their rows.
+        everything = len(check) == len(sub)
+        _, q, normal = _split_quality(positions, sub if everything else sub.take(check, axis=0))
+        if everything:
+            q_now, n_now = q, normal
+        else:
+            q_now[check], n_now[check] = q, normal
+        turned = np.einsum("ij,ij->i", normal, n_old if everything else n_old.take(check, axis=0)) <= 0
+        bad = check[(q < (floor if everything else floor[check]) - 1e-12) | turned]
         if len(bad) == 0:
             check = check[:0]
             break
