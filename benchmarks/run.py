@@ -63,7 +63,7 @@ RATE_UNIT = {"read": "read", "sample": "points", "grid": "points", "ground": "po
 #: Functions whose pyinstrument subtree is a stage (``--profile``).
 STAGE_FUNCTIONS = {"read": {"read_point_clouds", "read_triangles"}, "sample": {"sample_thinned"},
                    "ground": {"column_ground_level", "occupied_cells"}, "classify": {"classify_voxels"},
-                   "blocks": {"_blocks_above_thresholds"}, "eliminate": {"eliminate_unsupported"},
+                   "blocks": {"blocks_above_thresholds"}, "eliminate": {"eliminate_unsupported"},
                    "surface": {"from_regions", "block_columns"}, "smooth": {"smooth"},
                    "project": {"project_nodes"}, "measure": {"measure_blocks", "nearest_distance"},
                    "export": {"write_mesh"}}

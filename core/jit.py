@@ -2,7 +2,8 @@
 
 A few steps are loops that numpy can only write as chains of whole-array
 passes over large temporaries, or searches that a KD-tree answers more
-generally than city data need: the crossing search of the projection
+generally than city data need: the passes over the labelled blocks
+(:mod:`core.blocks_kernel`), the crossing search of the projection
 (:mod:`core.crossing_kernel`, millions of face pairs, each a few dozen
 arithmetic operations), the nearest data points (:mod:`core.neighbours_kernel`,
 a grid of columns), the points a node tries (:mod:`core.projection_kernel`),
@@ -38,8 +39,8 @@ from types import ModuleType
 from .errors import Cancelled
 
 #: The kernel modules of core, each with a ``warm_up()`` (see :func:`warm_up`).
-KERNELS = ("crossing_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel", "support_kernel",
-           "topology_kernel")
+KERNELS = ("blocks_kernel", "crossing_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel",
+           "support_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

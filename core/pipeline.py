@@ -32,7 +32,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from .blocks import block_attributes, block_columns, drop_blocks, keep_blocks, label_blocks, small_blocks
+from .blocks import block_columns, blocks_above_thresholds
 from .classify import classify_voxels, roof_hole_columns
 from .clusters import merge as merge_clusters
 from .clusters import split_clusters
@@ -299,7 +299,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
 
     report(0.45, "Building blocks")
     thresholds = (params.min_height / m, params.min_footprint / m**2, params.min_volume / m**3)
-    blocks, table, dropped = _blocks_above_thresholds(labels, grid, thresholds, is_cancelled)
+    blocks, table, dropped = blocks_above_thresholds(labels, grid, *thresholds)
     lap("blocks")
 
     report(0.6, "Eliminating unsupported boundary voxels")
@@ -307,7 +307,9 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     eliminate_unsupported(labels, grid, building, params.support, extrude_roofs=airborne,
                           is_cancelled=is_cancelled, search=building_search)
     make_well_composed(labels, is_cancelled=is_cancelled)
-    blocks, table, dropped_after = _blocks_above_thresholds(labels, grid, thresholds, is_cancelled)
+    if is_cancelled is not None and is_cancelled():
+        raise Cancelled()
+    blocks, table, dropped_after = blocks_above_thresholds(labels, grid, *thresholds)
     lap("eliminate")
     if dropped or dropped_after:
         warnings.append(f"Dropped {dropped + dropped_after} blocks below the thresholds "
@@ -395,25 +397,6 @@ def _reconstruct_clusters(ground, building, ground_cluster, building_cluster, cr
     result = merge_clusters(parts)
     result.warnings[:0] = warnings
     return result
-
-
-def _blocks_above_thresholds(labels, grid, thresholds, is_cancelled):
-    """Label blocks and drop the small ones (paper §3.2).
-
-    Dropping whole blocks leaves the other blocks and their attributes as
-    they are (and the labels well-composed, :func:`core.blocks.drop_blocks`),
-    so one pass drops all there is to drop.
-    """
-    if is_cancelled is not None and is_cancelled():
-        raise Cancelled()
-    blocks, n = label_blocks(labels)
-    voxels = np.flatnonzero(blocks)  # one pass over the grid for the three steps
-    table = block_attributes(blocks, n, grid, voxels)
-    small = small_blocks(table, *thresholds)
-    if small.any():
-        drop_blocks(labels, blocks, table.block_id[small], voxels)
-        blocks, table = keep_blocks(blocks, table, ~small, voxels)
-    return blocks, table, int(small.sum())
 
 
 def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):
