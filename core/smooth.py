@@ -27,6 +27,7 @@ from typing import Callable
 import numpy as np
 from scipy import sparse
 
+from . import jit
 from .errors import Cancelled
 from .quality import FaceState, accept_moves
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel, unique_nodes
@@ -139,6 +140,24 @@ class CatmullClarkStep:
         self._edge_weight = (4.0 / valence / valence)[:, None]
         self._own_weight = ((valence - 3) / valence)[:, None]
 
+    def tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The step as :func:`core.smooth_kernel.step_into` takes it: the
+        faces' corners and the edges' ends (numbered as ``self.nodes``), and
+        the weights of a node's face sum, edge sum and position."""
+        return (self._faces.indices, self._edges.indices, self._face_weight[:, 0], self._edge_weight[:, 0],
+                self._own_weight[:, 0])
+
+    def into(self, target: np.ndarray, positions: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """Write the new positions of the surface nodes ``self.nodes[which]``
+        into ``target`` (N, 3), from all ``positions`` (N, 3); returns ``target``."""
+        if jit.kernels("smooth_kernel", len(self.nodes)) is not None:
+            # The same sums, without the sparse products' tables (core.smooth_kernel).
+            done = jit.run("smooth_kernel", "step_into", target, positions, self.nodes, which, *self.tables())
+            if done is not None:
+                return done
+        target[self.nodes[which]] = self(positions).compress(which, axis=0)
+        return target
+
     def __call__(self, positions: np.ndarray) -> np.ndarray:
         """New positions (len(self.nodes), 3) of the surface's nodes, from all ``positions`` (N, 3)."""
         p = positions.take(self.nodes, axis=0)  # faster than positions[self.nodes] (core.vectors)
@@ -191,9 +210,8 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     for _ in range(passes):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        target = nodes.copy()
-        target[blocks.nodes[from_blocks]] = blocks(nodes).compress(from_blocks, axis=0)
-        target[ground.nodes[from_ground]] = ground(nodes).compress(from_ground, axis=0)
+        target = blocks.into(nodes.copy(), nodes, from_blocks)
+        target = ground.into(target, nodes, from_ground)
         proposal = np.where(keep, nodes, target)
         wanted = changed_rows(proposal, nodes)
         nodes, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled,

@@ -1,0 +1,63 @@
+"""The compiled Catmull-Clark step (core.smooth_kernel) against the sparse
+products of core.smooth: the same positions to the last bit."""
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from core.grid import VoxelGrid
+from core.smooth import CatmullClarkStep
+from core.surface import AIR_REGION, GROUND_REGION, SurfaceModel
+
+
+@pytest.fixture
+def kernel(compiled):
+    return compiled("smooth_kernel")
+
+
+def shaken_blocks(seed):
+    """The surface of random blocks on a ground layer, its nodes shaken."""
+    rng = np.random.default_rng(seed)
+    regions = np.full((30, 25, 12), AIR_REGION, dtype=np.int32)
+    regions[:, :, :2] = GROUND_REGION
+    building = np.zeros(regions.shape, bool)
+    for _ in range(12):
+        x, y = rng.integers(1, 24, 2)
+        building[x:x + rng.integers(1, 6), y:y + rng.integers(1, 6), 2:2 + rng.integers(1, 9)] = True
+    labels, _ = ndimage.label(building)
+    regions[building] = labels[building]
+    model = SurfaceModel.from_regions(VoxelGrid(np.zeros(3), np.zeros(3), 1.0, regions.shape), regions)
+    nodes = model.nodes + rng.normal(scale=0.15, size=model.nodes.shape)
+    return model, nodes, rng
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_step_writes_the_sparse_products_positions(monkeypatch, kernel, seed):
+    model, nodes, rng = shaken_blocks(seed)
+    step = CatmullClarkStep(model.quads, len(nodes))
+    which = rng.random(len(step.nodes)) < 0.8
+    calls = []
+    monkeypatch.setattr(kernel, "step_into", lambda *args, real=kernel.step_into: calls.append(1) or real(*args))
+    got = step.into(nodes.copy(), nodes, which)
+    with monkeypatch.context() as patch:
+        patch.setenv("URBANVOX_JIT", "0")
+        expected = step.into(nodes.copy(), nodes, which)
+    assert calls and not np.array_equal(expected, nodes)
+    assert np.array_equal(got, expected)
+    # What the kernel leaves alone: the nodes not asked for, and those of no face.
+    untouched = np.ones(len(nodes), bool)
+    untouched[step.nodes[which]] = False
+    assert np.array_equal(got[untouched], nodes[untouched])
+
+
+def test_int64_tables_give_the_same_positions(kernel):
+    model, nodes, rng = shaken_blocks(5)
+    step = CatmullClarkStep(model.quads, len(nodes))
+    which = np.ones(len(step.nodes), bool)
+    corners, ends, *weights = step.tables()
+    narrow = kernel.step_into(nodes.copy(), nodes, step.nodes, which, corners, ends, *weights)
+    wide = kernel.step_into(nodes.copy(), nodes, step.nodes, which, corners.astype(np.int64),
+                            ends.astype(np.int64), *weights)
+    assert corners.dtype == np.int32 and np.array_equal(narrow, wide)
+    expected = nodes.copy()
+    expected[step.nodes] = step(nodes)
+    assert np.array_equal(narrow, expected)
