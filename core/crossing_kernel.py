@@ -36,7 +36,7 @@ import numpy as np
 
 from .errors import Cancelled
 from .neighbours_kernel import by_column, column_grid, column_range, compiled, rising_from
-from .parallel import map_blocks, row_blocks
+from .parallel import map_blocks, row_blocks, thread_blocks
 
 #: Quantile of the reach that splits the quads into the two tiers.
 _TIER_QUANTILE = 0.99
@@ -115,6 +115,44 @@ def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray,
     return np.concatenate(found)
 
 
+def face_balls(nodes: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Centre and reach of every face, as :func:`core.intersect._balls`
+    (the corners summed in their order, then divided by their number; the
+    largest squared distance to a corner, its square root), on all cores.
+
+    Examples
+    --------
+    >>> nodes = np.array([[0.0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0]])
+    >>> centre, reach = face_balls(nodes, np.array([[0, 1, 2, 3]]))
+    >>> centre.tolist(), reach.round(6).tolist()
+    ([[1.0, 1.0, 0.0]], [1.414214])
+    """
+    nodes = np.ascontiguousarray(nodes, dtype=np.float64)
+    faces = np.ascontiguousarray(faces)
+    centre = np.empty((len(faces), 3))
+    reach = np.empty(len(faces))
+    map_blocks(lambda rows: _balls(nodes, faces, rows.start, rows.stop, centre, reach), thread_blocks(len(faces)))
+    return centre, reach
+
+
+def triangle_boxes(nodes: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The triangles' float32 boxes rounded outwards, as per-axis rows
+    (3, T): :func:`core.intersect._pair_rows`, on all cores.
+
+    Examples
+    --------
+    >>> lower, upper = triangle_boxes(np.array([[0.1, 0, 0], [1, 0, 0], [0, 1, 0]]), np.array([[0, 1, 2]]))
+    >>> lower.dtype.name, bool(lower[0, 0] <= 0.1), bool(upper[0, 0] >= 1.0)
+    ('float32', True, True)
+    """
+    nodes = np.ascontiguousarray(nodes, dtype=np.float64)
+    tri = np.ascontiguousarray(tri)
+    lower = np.empty((3, len(tri)), dtype=np.float32)
+    upper = np.empty((3, len(tri)), dtype=np.float32)
+    map_blocks(lambda rows: _boxes(nodes, tri, rows.start, rows.stop, lower, upper), thread_blocks(len(tri)))
+    return lower, upper
+
+
 def warm_up() -> int:
     """Compile for the types :func:`core.intersect._crossing_quads` passes
     (32-bit triangles): two plates, a node pushed through the upper one."""
@@ -127,7 +165,48 @@ def warm_up() -> int:
     pairs = crossing_triangles(centre, reach, np.array([0]), tri, positions, _pair_rows(positions, tri),
                                np.array([True, True, False, False]))
     assert len(pairs) == 2, pairs
+    for dtype in (np.int64, np.int32):
+        centre, reach = face_balls(positions, np.array([[0, 1, 2, 3], [4, 5, 6, 7]], dtype=dtype))
+        assert np.array_equal(centre[1], [0.5, 0.5, 0.5]), centre
+        lower, upper = triangle_boxes(positions, tri.astype(dtype))
+        assert lower[2, 0] == 0.0 and upper[2, 0] == 1.0, (lower, upper)
     return len(pairs)
+
+
+@compiled
+def _balls(nodes, faces, start, stop, centre, reach):
+    """Rows ``start:stop`` of :func:`face_balls`."""
+    corners = faces.shape[1]
+    for f in range(start, stop):
+        a = faces[f, 0]
+        x, y, z = nodes[a, 0], nodes[a, 1], nodes[a, 2]
+        for k in range(1, corners):
+            b = faces[f, k]
+            x, y, z = x + nodes[b, 0], y + nodes[b, 1], z + nodes[b, 2]
+        x, y, z = x / corners, y / corners, z / corners
+        squared = 0.0
+        for k in range(corners):
+            b = faces[f, k]
+            dx, dy, dz = nodes[b, 0] - x, nodes[b, 1] - y, nodes[b, 2] - z
+            squared = _maximum(squared, (dx * dx + dy * dy) + dz * dz)
+        centre[f, 0], centre[f, 1], centre[f, 2] = x, y, z
+        reach[f] = np.sqrt(squared)
+
+
+@compiled
+def _boxes(nodes, tri, start, stop, lower, upper):
+    """Rows ``start:stop`` of :func:`triangle_boxes`: each bound rounded to
+    float32, then one float32 step outwards where the rounding went inwards."""
+    down, up = np.float32(-np.inf), np.float32(np.inf)
+    for t in range(start, stop):
+        a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
+        for axis in range(3):
+            x0, x1, x2 = nodes[a, axis], nodes[b, axis], nodes[c, axis]
+            low = _minimum(_minimum(x0, x1), x2)
+            high = _maximum(_maximum(x0, x1), x2)
+            low32, high32 = np.float32(low), np.float32(high)
+            lower[axis, t] = np.nextafter(low32, down) if low32 > low else low32
+            upper[axis, t] = np.nextafter(high32, up) if high32 < high else high32
 
 
 @compiled
@@ -147,8 +226,16 @@ def _bucket(members, centre, reach, x0, y0, cell, nx, ny):
 
 @compiled
 def _maximum(a, b):
-    """``np.maximum(a, b)`` for a ``b`` that is not NaN (NaN wins, as in numpy)."""
+    """``np.maximum(a, b)``: NaN if either is."""
     if a != a or a >= b:
+        return a
+    return b
+
+
+@compiled
+def _minimum(a, b):
+    """``np.minimum(a, b)``: NaN if either is."""
+    if a != a or a <= b:
         return a
     return b
 

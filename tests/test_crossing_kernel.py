@@ -87,3 +87,30 @@ def test_empty_seeds_find_nothing(kernel):
     pairs = kernel.crossing_triangles(centre, reach, np.zeros(0, np.int64), tri, positions,
                                       _pair_rows(positions, tri), np.ones(len(tri), bool))
     assert pairs.shape == (0, 2)
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.int32])
+def test_balls_and_boxes_are_numpys_to_the_last_bit(monkeypatch, kernel, dtype):
+    # Coordinates at every scale and 2 km from the origin (float32 boxes
+    # rounded outwards), a few NaN, triangles and quads.
+    rng = np.random.default_rng(12)
+    nodes = rng.normal(size=(5000, 3)) * 10.0 ** rng.integers(-6, 4, size=(5000, 1)) + 2000.0
+    nodes[:5, 1] = np.nan
+    for corners in (3, 4):
+        faces = rng.integers(0, len(nodes), size=(100_000, corners)).astype(dtype)
+        with monkeypatch.context() as patch:
+            patch.setenv("URBANVOX_JIT", "0")
+            expected_balls = _balls(nodes, faces)
+            expected_boxes = _pair_rows(nodes, faces[:, :3]) if corners == 3 else None
+        got = kernel.face_balls(nodes, faces)
+        for e, g in zip(expected_balls, got):
+            assert g.dtype == e.dtype and np.array_equal(g, e, equal_nan=True)
+        if expected_boxes is not None:
+            boxes = kernel.triangle_boxes(nodes, faces)
+            for e, g in zip(expected_boxes, boxes):
+                assert g.dtype == e.dtype == np.float32 and np.array_equal(g, e, equal_nan=True)
+            assert np.isnan(boxes[0]).any()
+            # Rounded outwards: each box holds its triangle.
+            x = nodes[faces]  # (T, 3 corners, 3 axes)
+            ok = ~np.isnan(x).any(axis=(1, 2))
+            assert (boxes[0].T[ok] <= x[ok].min(axis=1)).all() and (boxes[1].T[ok] >= x[ok].max(axis=1)).all()
