@@ -76,14 +76,18 @@ def kernels(name: str, size: int | None = None) -> ModuleType | None:
     caller then runs its numpy code. The import is tried once per process.
 
     Also None for work of ``size`` below :data:`WORTHWHILE` elements while
-    the module is not loaded: importing numba and loading the compiled code
-    take about 0.4 s and 100 MB once per process, more than small data
-    gain (Delft at 1 m took 0.59 -> 1.04 s end to end in a fresh process).
-    ``URBANVOX_JIT=always`` loads them for any size (the tests use it).
+    no kernel is loaded: importing numba and loading the first compiled
+    code take about 0.3 s and 100 MB once per process, more than small
+    data gain (Delft at 1 m: 0.49 s with numpy in a fresh process, 0.54-0.66
+    s with the kernels). Once one is loaded (by large work), the others
+    cost a few hundredths of a second each and run for any size: Delft at
+    0.5 m, whose 3.8 M voxels load the first, took 1.74-1.79 s with the
+    others kept off, 1.26-1.28 s with them. ``URBANVOX_JIT=always`` loads
+    them for any size from the start (the tests use it).
     """
     if not enabled():
         return None
-    if size is not None and size < WORTHWHILE and _loaded.get(name) is None and not _always():
+    if size is not None and size < WORTHWHILE and not _any_loaded() and not _always():
         return None
     with _lock:
         if name not in _loaded:
@@ -105,6 +109,11 @@ def kernels(name: str, size: int | None = None) -> ModuleType | None:
             finally:
                 numba.config.CACHE_DIR = saved
         return _loaded[name]
+
+
+def _any_loaded() -> bool:
+    """Whether a kernel module is loaded in this process (so numba is imported)."""
+    return any(module is not None for module in _loaded.values())
 
 
 def _always() -> bool:

@@ -22,12 +22,14 @@ def test_switched_off_by_the_environment(monkeypatch, kernel):
 
 def test_small_work_does_not_load_the_kernels(monkeypatch):
     # Importing numba and loading the kernels costs more than small data gain;
-    # once loaded (by large work), a kernel runs for any size.
+    # once one is loaded (by large work), every kernel runs for any size.
     monkeypatch.delenv("URBANVOX_JIT", raising=False)
     monkeypatch.setattr(jit, "_loaded", {})
     assert jit.kernels("crossing_kernel", 1000) is None and "crossing_kernel" not in jit._loaded
+    assert jit.kernels("quality_kernel", 1000) is None and "quality_kernel" not in jit._loaded
     module = jit.kernels("crossing_kernel", jit.WORTHWHILE)
     assert module is not None and jit.kernels("crossing_kernel", 1000) is module
+    assert jit.kernels("quality_kernel", 1000) is not None
 
 
 def test_a_failing_kernel_falls_back_to_numpy_with_a_warning(kernel, monkeypatch):
