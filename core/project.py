@@ -65,7 +65,7 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     array([0., 0., 1.])
     """
     if jit.kernels("projection_kernel", len(quads)) is not None:
-        # The same sums, in four passes instead of twelve (core.projection_kernel).
+        # The same sums, without a pass over all nodes per corner and coordinate (core.projection_kernel).
         found = jit.run("projection_kernel", "node_normals", nodes, quads, n)
         if found is not None:
             return found

@@ -4,9 +4,10 @@ normals, and the data points a node tries.
 The normals (:func:`node_normals`): numpy sums the quads' unit normals into
 their nodes with twelve ``bincount`` passes (a corner column and a
 coordinate each), 1 s for the two projections of the 1 km synthetic city.
-Here the quads' normals are made in one pass on all cores, and summed in
-four (one per corner column, as the ``bincount`` passes add them: in quad
-order, then corner by corner), so the sums are numpy's to the last bit.
+Here the quads' normals are made in one pass on all cores, and summed as
+the ``bincount`` passes add them (per corner column, in quad order; the
+columns one after the other) in passes over the quads only, so the sums are
+numpy's to the last bit: 0.61 -> 0.23 s on 2.6 M lattice quads.
 
 Step 1 of the projection (:mod:`core.project`): among a node's 24 nearest
 data points, the few closest to the line through the node along its normal,

@@ -3,7 +3,7 @@
 A step of :class:`core.smooth.CatmullClarkStep` is four sparse products
 (face centres, their sums at the nodes, edge midpoints, theirs), a weighted
 sum of three (n, 3) tables, then the rows of the nodes that follow the
-surface copied into the new positions: 1.1 s for the three passes of the
+surface copied into the new positions: 1 s for the three passes of the
 1 km synthetic city. Here the centres and midpoints are made on all cores,
 summed into the nodes in one pass each, and the weighted sums written
 straight into the new positions. The sums run in scipy's order (the

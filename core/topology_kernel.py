@@ -2,8 +2,8 @@
 
 Every quality-controlled step asks which nodes moved
 (:func:`core.topology.changed_rows`) and which faces touch them
-(:func:`core.topology.touching`), on the whole model: on the 1 km synthetic
-city, 5 M nodes and 4.9 M quads, some forty times, 1.5 s in all. numpy
+(:func:`core.topology.touching`), on the whole model, pass after pass: on
+the 1 km synthetic city (5 M nodes, 4.9 M quads), 1.5 s in all. numpy
 writes each as a few whole-array passes (a gather per corner column, a
 comparison per coordinate); here each is one pass on all cores. The answers
 are booleans, the same either way.
