@@ -35,7 +35,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import Cancelled
-from .neighbours_kernel import by_column, column_grid, column_range, compiled, rising_from
+from .neighbours_kernel import by_column, column_grid, column_range, compiled, maximum, minimum, rising_from
 from .parallel import map_blocks, row_blocks, thread_blocks
 
 #: Quantile of the reach that splits the quads into the two tiers.
@@ -188,7 +188,7 @@ def _balls(nodes, faces, start, stop, centre, reach):
         for k in range(corners):
             b = faces[f, k]
             dx, dy, dz = nodes[b, 0] - x, nodes[b, 1] - y, nodes[b, 2] - z
-            squared = _maximum(squared, (dx * dx + dy * dy) + dz * dz)
+            squared = maximum(squared, (dx * dx + dy * dy) + dz * dz)
         centre[f, 0], centre[f, 1], centre[f, 2] = x, y, z
         reach[f] = np.sqrt(squared)
 
@@ -202,8 +202,8 @@ def _boxes(nodes, tri, start, stop, lower, upper):
         a, b, c = tri[t, 0], tri[t, 1], tri[t, 2]
         for axis in range(3):
             x0, x1, x2 = nodes[a, axis], nodes[b, axis], nodes[c, axis]
-            low = _minimum(_minimum(x0, x1), x2)
-            high = _maximum(_maximum(x0, x1), x2)
+            low = minimum(minimum(x0, x1), x2)
+            high = maximum(maximum(x0, x1), x2)
             low32, high32 = np.float32(low), np.float32(high)
             lower[axis, t] = np.nextafter(low32, down) if low32 > low else low32
             upper[axis, t] = np.nextafter(high32, up) if high32 < high else high32
@@ -225,22 +225,6 @@ def _bucket(members, centre, reach, x0, y0, cell, nx, ny):
 
 
 @compiled
-def _maximum(a, b):
-    """``np.maximum(a, b)``: NaN if either is."""
-    if a != a or a >= b:
-        return a
-    return b
-
-
-@compiled
-def _minimum(a, b):
-    """``np.minimum(a, b)``: NaN if either is."""
-    if a != a or a <= b:
-        return a
-    return b
-
-
-@compiled
 def _edges_cross(positions, edges_of, face):
     """Whether an edge of triangle ``edges_of`` crosses triangle ``face``
     (node triples): :func:`core.intersect._edges_cross` for one pair, each
@@ -248,7 +232,7 @@ def _edges_cross(positions, edges_of, face):
     v0x, v0y, v0z = positions[face[0], 0], positions[face[0], 1], positions[face[0], 2]
     e1x, e1y, e1z = positions[face[1], 0] - v0x, positions[face[1], 1] - v0y, positions[face[1], 2] - v0z
     e2x, e2y, e2z = positions[face[2], 0] - v0x, positions[face[2], 1] - v0y, positions[face[2], 2] - v0z
-    scale = 1e-12 * _maximum(np.sqrt((e1x * e1x + e1y * e1y) + e1z * e1z)
+    scale = 1e-12 * maximum(np.sqrt((e1x * e1x + e1y * e1y) + e1z * e1z)
                              * np.sqrt((e2x * e2x + e2y * e2y) + e2z * e2z), 1e-300)
     eps = 1e-9
     for i in range(3):
@@ -257,7 +241,7 @@ def _edges_cross(positions, edges_of, face):
         dx, dy, dz = positions[edges_of[j], 0] - ox, positions[edges_of[j], 1] - oy, positions[edges_of[j], 2] - oz
         hx, hy, hz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x
         det = (e1x * hx + e1z * hz) + e1y * hy
-        if not abs(det) > scale * _maximum(np.sqrt((dx * dx + dy * dy) + dz * dz), 1e-300):
+        if not abs(det) > scale * maximum(np.sqrt((dx * dx + dy * dy) + dz * dz), 1e-300):
             continue  # numpy's inv is 0 there, and no hit
         inv = 1.0 / det
         sx, sy, sz = ox - v0x, oy - v0y, oz - v0z

@@ -224,6 +224,22 @@ def _bucket(data, x0, y0, cell, nx, ny, order):
 
 
 @compiled
+def maximum(a, b):
+    """``np.maximum(a, b)`` of two floats: NaN if either is (the other kernels' too)."""
+    if a != a or a >= b:
+        return a
+    return b
+
+
+@compiled
+def minimum(a, b):
+    """``np.minimum(a, b)`` of two floats: NaN if either is."""
+    if a != a or a <= b:
+        return a
+    return b
+
+
+@compiled
 def before(d1, x1, y1, z1, i1, d2, x2, y2, z2, i2):
     """Whether (d1, x1, y1, z1, i1) comes strictly before (d2, x2, y2, z2, i2):
     the order of :func:`core.neighbours.by_value_then_coordinates`, the

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import before, compiled
+from .neighbours_kernel import before, compiled, maximum
 from .parallel import map_blocks, thread_blocks
 
 
@@ -112,7 +112,7 @@ def _unit_quad_normals(nodes, quads, start, stop, unit):
         vx, vy, vz = nodes[d, 0] - nodes[b, 0], nodes[d, 1] - nodes[b, 1], nodes[d, 2] - nodes[b, 2]
         wx, wy, wz = 0.5 * (uy * vz - uz * vy), 0.5 * (uz * vx - ux * vz), 0.5 * (ux * vy - uy * vx)
         size = np.sqrt((wx * wx + wy * wy) + wz * wz)
-        size = size if size >= 1e-300 or size != size else 1e-300  # np.maximum(size, 1e-300)
+        size = maximum(size, 1e-300)
         unit[m, 0], unit[m, 1], unit[m, 2] = wx / size, wy / size, wz / size
 
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import compiled
+from .neighbours_kernel import compiled, maximum, minimum
 from .parallel import map_blocks, thread_blocks
 
 #: The normalisation of :func:`core.quality.triangle_quality` (an equilateral triangle scores 1).
@@ -75,18 +75,6 @@ def warm_up() -> int:
 
 
 @compiled
-def _maximum(a, b):
-    """``np.maximum``: NaN if either is."""
-    return a if a >= b or a != a else b
-
-
-@compiled
-def _minimum(a, b):
-    """``np.minimum``: NaN if either is."""
-    return a if a <= b or a != a else b
-
-
-@compiled
 def _length(x, y, z):
     """:func:`core.vectors.length`."""
     return np.sqrt((x * x + y * y) + z * z)
@@ -99,7 +87,7 @@ def _triangle(ab, bc, ca, ux, uy, uz, vx, vy, vz, nx, ny, nz):
     0 when it faces away from the quad's normal n."""
     tx, ty, tz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
     area = 0.5 * _length(tx, ty, tz)
-    longest = _maximum(_maximum(ab, bc), ca)
+    longest = maximum(maximum(ab, bc), ca)
     denominator = (ab + bc + ca) * longest
     q = _SCALE * area / denominator if denominator > 0 else 0.0
     facing = ((tx * nx + tz * nz) + ty * ny) > 0
@@ -128,9 +116,9 @@ def _fill(nodes, quads, start, stop, use_second, quality, normal, normals):
         nx = 0.5 * (d02y * d13z - d02z * d13y)
         ny = 0.5 * (d02z * d13x - d02x * d13z)
         nz = 0.5 * (d02x * d13y - d02y * d13x)
-        first = _minimum(_triangle(l01, l12, l02, d01x, d01y, d01z, d02x, d02y, d02z, nx, ny, nz),
+        first = minimum(_triangle(l01, l12, l02, d01x, d01y, d01z, d02x, d02y, d02z, nx, ny, nz),
                          _triangle(l02, l23, l30, d02x, d02y, d02z, -d30x, -d30y, -d30z, nx, ny, nz))
-        second = _minimum(_triangle(l12, l23, l13, d12x, d12y, d12z, d13x, d13y, d13z, nx, ny, nz),
+        second = minimum(_triangle(l12, l23, l13, d12x, d12y, d12z, d13x, d13y, d13z, nx, ny, nz),
                           _triangle(l13, l30, l01, d13x, d13y, d13z, -d01x, -d01y, -d01z, nx, ny, nz))
         better = second > first
         use_second[m] = better
