@@ -90,10 +90,8 @@ def block_attributes(blocks: np.ndarray, n: int, grid: VoxelGrid,
     """
     nz = grid.shape[2]
     h = grid.voxel_size
-    found = None
-    if jit.kernels("blocks_kernel", blocks.size) is not None:
-        # One pass over the grid, the same counts (core.blocks_kernel).
-        found = jit.run("blocks_kernel", "block_extents", blocks, n)
+    # One pass over the grid, the same counts (core.blocks_kernel).
+    found = jit.run("blocks_kernel", "block_extents", blocks, n, size=blocks.size)
     if found is not None:
         n_voxels, columns, lowest, highest = found
     else:

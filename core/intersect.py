@@ -65,11 +65,10 @@ def _pair_rows(nodes: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarr
     >>> lower.dtype.name, bool(lower[0, 0] <= 0.0), bool(upper[0, 0] >= 1.0)
     ('float32', True, True)
     """
-    if jit.kernels("crossing_kernel", len(tri)) is not None:
-        # The same boxes in one pass (core.crossing_kernel).
-        found = jit.run("crossing_kernel", "triangle_boxes", nodes, tri)
-        if found is not None:
-            return found
+    # The same boxes in one pass (core.crossing_kernel).
+    found = jit.run("crossing_kernel", "triangle_boxes", nodes, tri, size=len(tri))
+    if found is not None:
+        return found
     lower = np.empty((3, len(tri)), dtype=np.float32)
     upper = np.empty((3, len(tri)), dtype=np.float32)
     down, up = np.float32(-np.inf), np.float32(np.inf)
@@ -148,11 +147,10 @@ def _balls(nodes: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray
     >>> centre.tolist(), reach.round(6).tolist()
     ([[1.0, 1.0, 0.0]], [1.414214])
     """
-    if jit.kernels("crossing_kernel", len(faces)) is not None:
-        # The same balls in one pass (core.crossing_kernel).
-        found = jit.run("crossing_kernel", "face_balls", nodes, faces)
-        if found is not None:
-            return found
+    # The same balls in one pass (core.crossing_kernel).
+    found = jit.run("crossing_kernel", "face_balls", nodes, faces, size=len(faces))
+    if found is not None:
+        return found
     centre = np.empty((len(faces), 3))
     reach = np.empty(len(faces))
 

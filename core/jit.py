@@ -121,15 +121,16 @@ def _always() -> bool:
     return os.environ.get("URBANVOX_JIT", "").strip().lower() == "always"
 
 
-def run(name: str, function: str, *args):
+def run(name: str, function: str, *args, size: int | None = None):
     """``core.<name>.<function>(*args)``, or None if the kernel cannot run.
 
-    None when :func:`kernels` has no module, or when the call fails (a cache
-    that cannot be read, a numba that cannot compile): the kernel is then
+    None when :func:`kernels` has no module (for work of ``size`` elements,
+    see there), or when the call fails (a cache that cannot be read, a numba
+    that cannot compile): the kernel is then
     off for the rest of the process, with a warning, and the caller runs
     its numpy code. :class:`core.errors.Cancelled` is raised as it comes.
     """
-    module = kernels(name)
+    module = kernels(name, size)
     if module is None:
         return None
     try:

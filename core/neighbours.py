@@ -55,10 +55,9 @@ def point_index(data: np.ndarray, cell: float, tree: PointSearch | None = None) 
     """
     if tree is not None and not isinstance(tree, cKDTree):
         return tree  # already an index
-    if jit.kernels("neighbours_kernel", len(data)) is not None:
-        index = jit.run("neighbours_kernel", "ColumnIndex", data, cell)
-        if index is not None:
-            return index
+    index = jit.run("neighbours_kernel", "ColumnIndex", data, cell, size=len(data))
+    if index is not None:
+        return index
     return tree if tree is not None else search_tree(data)
 
 

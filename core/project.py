@@ -64,11 +64,10 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     >>> node_normals(nodes, np.array([[0, 1, 2, 3]]), 4)[0]
     array([0., 0., 1.])
     """
-    if jit.kernels("projection_kernel", len(quads)) is not None:
-        # The same sums, without a pass over all nodes per corner and coordinate (core.projection_kernel).
-        found = jit.run("projection_kernel", "node_normals", nodes, quads, n)
-        if found is not None:
-            return found
+    # The same sums, without a pass over all nodes per corner and coordinate (core.projection_kernel).
+    found = jit.run("projection_kernel", "node_normals", nodes, quads, n, size=len(quads))
+    if found is not None:
+        return found
     normal = np.empty((3, len(quads)))
 
     def fill(rows: slice) -> None:
@@ -361,12 +360,12 @@ def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.n
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         near = nearest(tree, data, p[rows], _NEAR, radius)[1]
-        if jit.kernels("projection_kernel", len(p)) is not None:
-            # The same points, one compiled pass per node (core.projection_kernel).
-            chosen = jit.run("projection_kernel", "closest_to_lines", data, near, p[rows], normal[rows], tries)
-            if chosen is not None:
-                candidates[rows] = chosen
-                continue
+        # The same points, one compiled pass per node (core.projection_kernel).
+        chosen = jit.run("projection_kernel", "closest_to_lines", data, near, p[rows], normal[rows], tries,
+                         size=len(p))
+        if chosen is not None:
+            candidates[rows] = chosen
+            continue
         out = candidates[rows]
         start = rows.start
 

@@ -142,11 +142,10 @@ def _split_quality(nodes: np.ndarray, quads: np.ndarray, block: int = 16384,
         As :func:`_split_quality_of`.
     """
     m = len(quads)
-    if jit.kernels("quality_kernel", m) is not None:
-        # One compiled pass per quad, the same numbers (core.quality_kernel).
-        found = jit.run("quality_kernel", "split_quality", nodes, quads, normals)
-        if found is not None:
-            return found
+    # One compiled pass per quad, the same numbers (core.quality_kernel).
+    found = jit.run("quality_kernel", "split_quality", nodes, quads, normals, size=m)
+    if found is not None:
+        return found
     if m <= block:
         use_second, quality, normal = _split_quality_of(nodes, quads)
         return use_second, quality, normal if normals else None

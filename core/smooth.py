@@ -150,11 +150,11 @@ class CatmullClarkStep:
     def into(self, target: np.ndarray, positions: np.ndarray, which: np.ndarray) -> np.ndarray:
         """Write the new positions of the surface nodes ``self.nodes[which]``
         into ``target`` (N, 3), from all ``positions`` (N, 3); returns ``target``."""
-        if jit.kernels("smooth_kernel", len(self.nodes)) is not None:
-            # The same sums, without the sparse products' tables (core.smooth_kernel).
-            done = jit.run("smooth_kernel", "step_into", target, positions, self.nodes, which, *self.tables())
-            if done is not None:
-                return done
+        # The same sums, without the sparse products' tables (core.smooth_kernel).
+        done = jit.run("smooth_kernel", "step_into", target, positions, self.nodes, which, *self.tables(),
+                       size=len(self.nodes))
+        if done is not None:
+            return done
         target[self.nodes[which]] = self(positions).compress(which, axis=0)
         return target
 

@@ -33,8 +33,8 @@ def touching(marked: np.ndarray, faces: np.ndarray) -> np.ndarray:
     >>> touching(np.array([False, True, False, False]), np.array([[0, 1, 2], [0, 2, 3]])).tolist()
     [True, False]
     """
-    if len(faces) >= _KERNEL_ROWS and jit.kernels("topology_kernel", len(faces)) is not None:
-        found = jit.run("topology_kernel", "touching", marked, faces)
+    if len(faces) >= _KERNEL_ROWS:
+        found = jit.run("topology_kernel", "touching", marked, faces, size=len(faces))
         if found is not None:
             return found
     hit = marked[faces[:, 0]]
@@ -126,8 +126,8 @@ def changed_rows(new: np.ndarray, old: np.ndarray) -> np.ndarray:
     >>> changed_rows(np.array([[0.0, 1, 2], [3, 4, 5]]), np.array([[0.0, 1, 2], [3, 4, 6]])).tolist()
     [False, True]
     """
-    if len(new) >= _KERNEL_ROWS and jit.kernels("topology_kernel", len(new)) is not None:
-        found = jit.run("topology_kernel", "changed_rows", new, old)
+    if len(new) >= _KERNEL_ROWS:
+        found = jit.run("topology_kernel", "changed_rows", new, old, size=len(new))
         if found is not None:
             return found
     return (new[:, 0] != old[:, 0]) | (new[:, 1] != old[:, 1]) | (new[:, 2] != old[:, 2])
