@@ -326,13 +326,15 @@ def merge_pieces(pieces: list[TilePiece], domain: GridWindow, voxel_size: float)
     nodes = lattice.astype(np.float64)
     del lattice
     nodes *= h
-    # Each piece's quads through its own stretch of node_of: no int64 copy of
-    # them all to concatenate first.
+    # Each piece's quads through its own stretch of node_of, straight into
+    # their rows: no int64 copy of them all to concatenate first, and no
+    # temporary per piece (mode="clip" keeps take from buffering its output;
+    # every index is in range).
     all_quads = np.empty((sum(len(p.quads) for p in pieces), 4), dtype=np.int64)
     stop = 0
     for rank, p in enumerate(pieces):
         rows = slice(stop, stop + len(p.quads))
-        all_quads[rows] = node_of[start[rank]:start[rank + 1]][p.quads]
+        np.take(node_of[start[rank]:start[rank + 1]], p.quads, out=all_quads[rows], mode="clip")
         stop = rows.stop
     del node_of
     all_regions = np.concatenate(regions)
@@ -524,7 +526,9 @@ class _Cropper:
         i0, j0, i1, j1 = window
         out = []
         for points, order, i, j in self.sets:
-            a, b = np.searchsorted(i, [i0, i1])
+            # Bounds in the columns' own dtype: a list of Python ints would
+            # make searchsorted cast all the columns to int64 on every call.
+            a, b = np.searchsorted(i, np.array([i0, i1], dtype=i.dtype))
             inside = (j[a:b] >= j0) & (j[a:b] < j1)
             out.append(points.take(order[a:b].compress(inside), axis=0))  # take: faster rows (core.vectors)
         return out[0], out[1]

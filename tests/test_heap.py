@@ -41,6 +41,30 @@ def test_freed_memory_is_kept_inside_and_handed_back_after():
     assert after < 5  # all handed back when the last user left
 
 
+def test_no_amount_of_freed_memory_is_handed_back_inside(monkeypatch):
+    # glibc trims the heap's top when the free space there reaches the trim
+    # threshold: the largest positive value mallopt takes (2 GB) let the 2 km
+    # city's tile merge hand back 2.4 GB and fault it in again. -1 disables
+    # trimming (mallopt(3)); a probe freeing over 2 GB would be too slow here.
+    calls = []
+
+    class Recorder:
+        def mallopt(self, parameter, value):
+            calls.append((parameter, value))
+            return 1
+
+        def malloc_trim(self, pad):
+            calls.append(("trim", pad))
+            return 1
+
+    monkeypatch.setattr(heap, "_LIBC", Recorder())
+    monkeypatch.setattr(heap, "_set_huge_pages", lambda enabled: None)
+    with heap.reusing_freed_memory():
+        assert calls == [(heap._M_MMAP_THRESHOLD, 2**31 - 1), (heap._M_TRIM_THRESHOLD, -1)]
+    assert calls[2:] == [(heap._M_MMAP_THRESHOLD, 128 * 1024), (heap._M_TRIM_THRESHOLD, 128 * 1024), ("trim", 0)]
+    assert heap.WORKER_ENVIRONMENT["MALLOC_TRIM_THRESHOLD_"] == "-1"
+
+
 def test_worker_environment_is_scoped_to_the_cluster_start():
     pytest.importorskip("dask")
     import dask
