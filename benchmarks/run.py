@@ -406,12 +406,43 @@ def print_summary(rows: list[dict]) -> None:
         print(f"{label:<22} {r['e2e_s']:7.1f} {cells} {r['peak_rss_mb']:7.0f}{extra}")
 
 
+def fresh_memory_ms_per_mb(nbytes: int = 256 * 2**20) -> float:
+    """Milliseconds per MB this machine takes to hand out fresh memory: the
+    first write of a new anonymous mapping (its page faults) less a second
+    write of the same pages.
+
+    A bare machine takes about 0.1-0.3 ms per MB. A virtual machine whose
+    host has taken back the guest's free pages takes several (4-12 ms per MB
+    on this project's), and every run pays it once for its peak: the same
+    code then looks up to 50 % slower (the 2 km city in tiles: 198.5 s with
+    the host slow, 133.5 s once 19 GB had been touched). Printed with every
+    benchmark so that runs are compared in the same state.
+    """
+    import mmap
+
+    import numpy as np
+
+    # An mmap of its own: fresh pages, without numpy's huge-page requests
+    # (the runs turn those off, core.heap).
+    with mmap.mmap(-1, nbytes) as region:
+        pages = np.frombuffer(region, dtype=np.uint8)
+        start = time.perf_counter()
+        pages.fill(1)
+        first = time.perf_counter() - start
+        start = time.perf_counter()
+        pages.fill(2)
+        again = time.perf_counter() - start
+        del pages
+    return max(first - again, 0.0) / (nbytes / 2**20) * 1e3
+
+
 def _machine() -> dict:
     import numpy
     import scipy
 
     info = {"python": platform.python_version(), "numpy": numpy.__version__, "scipy": scipy.__version__,
-            "cpus": os.cpu_count(), "platform": platform.platform()}
+            "cpus": os.cpu_count(), "platform": platform.platform(),
+            "fresh_memory_ms_per_mb": round(fresh_memory_ms_per_mb(), 3)}
     try:
         info["memory_gb"] = round(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2**30, 1)
         info["cpu"] = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo", encoding="ascii")
@@ -480,7 +511,8 @@ def main(argv: list[str] | None = None) -> int:
     doc = {"machine": _machine(), "argv": argv, "city_size_m": city_size, "runs": []}
     print(f"urbanvox benchmarks: numpy {doc['machine']['numpy']}, open3d {doc['machine']['open3d']}, "
           f"skimage {doc['machine']['skimage']}, trimesh {doc['machine']['trimesh']}; "
-          f"{doc['machine'].get('cpus')} CPUs, {doc['machine'].get('memory_gb')} GB; results -> {out_path}",
+          f"{doc['machine'].get('cpus')} CPUs, {doc['machine'].get('memory_gb')} GB, fresh memory "
+          f"{doc['machine']['fresh_memory_ms_per_mb']:.2f} ms/MB; results -> {out_path}",
           flush=True)
     for name in wanted:
         case = all_cases[name]
