@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from .run import ROOT, fresh_memory_ms_per_mb, synthetic_path
+from .run import ROOT, fresh_memory_in_child, synthetic_path
 
 
 def run(path: Path, voxel: float, tile: float, workers: int, report: Path) -> dict:
@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--json", type=Path, help="write the results here")
     args = parser.parse_args(argv)
     path = synthetic_path({"kind": "city", "size": args.size})
-    fresh = fresh_memory_ms_per_mb()
+    fresh = fresh_memory_in_child()
     print(f"city {args.size:g} m ({path}), {args.voxel:g} m voxels, {args.tile_size:g} m tiles; "
           f"fresh memory {fresh:.2f} ms/MB")
     print(f"  {'workers':>7} {'wall s':>8} {'core s':>8} {'peak RSS MB':>12} {'blocks':>7} {'volume m3':>14} tiles")
