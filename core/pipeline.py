@@ -32,6 +32,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from . import jit
 from .blocks import block_columns, blocks_above_thresholds
 from .classify import classify_voxels, roof_hole_columns
 from .clusters import merge as merge_clusters
@@ -257,6 +258,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
 
     grid = window.grid(h)
     check_memory(grid.shape, params.voxel_size, params.max_memory, tile_hint=True)
+    jit.preload(grid.n_voxels)  # the blocks load them at this size: meanwhile, the ground and classes
     lower = grid.offset
     if overwrite_points:
         ground -= lower

@@ -32,6 +32,22 @@ def test_small_work_does_not_load_the_kernels(monkeypatch):
     assert jit.kernels("quality_kernel", 1000) is not None
 
 
+def test_a_preload_loads_every_kernel_for_large_work_only_once(compiled, monkeypatch):
+    compiled("quality_kernel")  # numba is there (the fixture asserts it)
+    monkeypatch.delenv("URBANVOX_JIT", raising=False)
+    monkeypatch.setattr(jit, "_loaded", {})
+    monkeypatch.setattr(jit, "_preloader", None)
+    assert jit.preload(jit.WORTHWHILE - 1) is None and jit._loaded == {}
+    thread = jit.preload(jit.WORTHWHILE)
+    assert thread is not None and jit.preload(jit.WORTHWHILE) is None  # one per process
+    thread.join(timeout=300)
+    assert not thread.is_alive()
+    assert sorted(name for name, module in jit._loaded.items() if module is not None) == sorted(jit.KERNELS)
+    monkeypatch.setattr(jit, "_preloader", None)
+    monkeypatch.setenv("URBANVOX_JIT", "0")
+    assert jit.preload(jit.WORTHWHILE) is None
+
+
 def test_a_failing_kernel_falls_back_to_numpy_with_a_warning(kernel, monkeypatch):
     # kernel first: its check of jit.failures runs after monkeypatch has put the list back.
     from test_intersect import stacked_grids
