@@ -46,6 +46,7 @@ from .grid import GridWindow, available_memory
 from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
 from .measure import BlockMeasures
+from .parallel import in_background
 from .surface import SurfaceModel, unique_nodes
 from .topology import run_starts
 from .workers import TileRunner
@@ -365,18 +366,21 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     tile, halo = options.columns(params.voxel_size)
     cores = plan_tiles(domain.shape, tile)
     _check_copy_keys(domain, len(cores))  # before the tiles run, not at their merge
+    # The ground level is a 2-D field, small next to the grid: computed once for
+    # the domain, so that every tile sees the single run's ground (its gaps
+    # under large roofs are interpolated from rims that may lie in other tiles).
+    # On a thread of its own while the points are sorted by column: qhull's
+    # triangulation of the rims lets go of the GIL (the 2 km city: 5.7 s of
+    # its 7.6 s, the cropper 1.7 s).
+    level = in_background(column_ground_level, domain.grid(h), ground - domain.lower)
     crop = _Cropper(ground, building, domain, h)
+    level = level.result()
+    level = GroundLevel(level.z, repair_height_field(level.top_k), level.observed)
     nx, ny, _ = domain.shape
     workers = max(1, int(options.workers or 1)) if not options.scheduler else None
     # Several tiles at once share the memory.
     budget = params.max_memory or available_memory()
     tile_params = replace(params, extent=None, max_memory=int(budget / (workers or 1)))
-
-    # The ground level is a 2-D field, small next to the grid: computed once for
-    # the domain, so that every tile sees the single run's ground (its gaps
-    # under large roofs are interpolated from rims that may lie in other tiles).
-    level = column_ground_level(domain.grid(h), ground - domain.lower)
-    level = GroundLevel(level.z, repair_height_field(level.top_k), level.observed)
 
     def job(index: int, window: Columns) -> TileJob:
         g, b = crop(window)
