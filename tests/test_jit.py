@@ -13,6 +13,14 @@ def kernel(compiled):
     return compiled("crossing_kernel")
 
 
+@pytest.fixture(autouse=True)
+def no_preload_running():
+    # A pipeline run of an earlier test may have started loading the kernels
+    # on a thread (jit.preload): the tests below swap the loaded modules.
+    if jit._preloader is not None:
+        jit._preloader.join()
+
+
 def test_switched_off_by_the_environment(monkeypatch, kernel):
     monkeypatch.setenv("URBANVOX_JIT", "0")
     assert jit.kernels("crossing_kernel") is None
