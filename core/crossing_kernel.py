@@ -35,7 +35,7 @@ from typing import Callable
 import numpy as np
 
 from .errors import Cancelled
-from .neighbours_kernel import by_column, column_grid, column_range, compiled, maximum, minimum, rising_from
+from .neighbours_kernel import by_column, column_grid, column_range, compiled, length, maximum, minimum, rising_from
 from .parallel import map_blocks, row_blocks, thread_blocks
 
 #: Quantile of the reach that splits the quads into the two tiers.
@@ -232,8 +232,7 @@ def _edges_cross(positions, edges_of, face):
     v0x, v0y, v0z = positions[face[0], 0], positions[face[0], 1], positions[face[0], 2]
     e1x, e1y, e1z = positions[face[1], 0] - v0x, positions[face[1], 1] - v0y, positions[face[1], 2] - v0z
     e2x, e2y, e2z = positions[face[2], 0] - v0x, positions[face[2], 1] - v0y, positions[face[2], 2] - v0z
-    scale = 1e-12 * maximum(np.sqrt((e1x * e1x + e1y * e1y) + e1z * e1z)
-                             * np.sqrt((e2x * e2x + e2y * e2y) + e2z * e2z), 1e-300)
+    scale = 1e-12 * maximum(length(e1x, e1y, e1z) * length(e2x, e2y, e2z), 1e-300)
     eps = 1e-9
     for i in range(3):
         j = (i + 1) % 3  # the edges (0, 1), (1, 2), (2, 0)
@@ -241,7 +240,7 @@ def _edges_cross(positions, edges_of, face):
         dx, dy, dz = positions[edges_of[j], 0] - ox, positions[edges_of[j], 1] - oy, positions[edges_of[j], 2] - oz
         hx, hy, hz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x
         det = (e1x * hx + e1z * hz) + e1y * hy
-        if not abs(det) > scale * maximum(np.sqrt((dx * dx + dy * dy) + dz * dz), 1e-300):
+        if not abs(det) > scale * maximum(length(dx, dy, dz), 1e-300):
             continue  # numpy's inv is 0 there, and no hit
         inv = 1.0 / det
         sx, sy, sz = ox - v0x, oy - v0y, oz - v0z

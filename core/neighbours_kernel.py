@@ -240,6 +240,12 @@ def minimum(a, b):
 
 
 @compiled
+def length(x, y, z):
+    """:func:`core.vectors.length` of one vector: the x and y squares added first."""
+    return np.sqrt((x * x + y * y) + z * z)
+
+
+@compiled
 def before(d1, x1, y1, z1, i1, d2, x2, y2, z2, i2):
     """Whether (d1, x1, y1, z1, i1) comes strictly before (d2, x2, y2, z2, i2):
     the order of :func:`core.neighbours.by_value_then_coordinates`, the

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import before, compiled, maximum
+from .neighbours_kernel import before, compiled, length, maximum
 from .parallel import map_blocks, thread_blocks
 
 
@@ -111,8 +111,7 @@ def _unit_quad_normals(nodes, quads, start, stop, unit):
         ux, uy, uz = nodes[c, 0] - nodes[a, 0], nodes[c, 1] - nodes[a, 1], nodes[c, 2] - nodes[a, 2]
         vx, vy, vz = nodes[d, 0] - nodes[b, 0], nodes[d, 1] - nodes[b, 1], nodes[d, 2] - nodes[b, 2]
         wx, wy, wz = 0.5 * (uy * vz - uz * vy), 0.5 * (uz * vx - ux * vz), 0.5 * (ux * vy - uy * vx)
-        size = np.sqrt((wx * wx + wy * wy) + wz * wz)
-        size = maximum(size, 1e-300)
+        size = maximum(length(wx, wy, wz), 1e-300)
         unit[m, 0], unit[m, 1], unit[m, 2] = wx / size, wy / size, wz / size
 
 
@@ -136,7 +135,7 @@ def _sum_into_nodes(quads, unit, normal):
         _flush_column(quads, k, sums, normal)
     for j in range(len(normal)):
         x, y, z = normal[j, 0], normal[j, 1], normal[j, 2]
-        size = np.sqrt((x * x + y * y) + z * z)
+        size = length(x, y, z)
         if size > 0:
             normal[j, 0], normal[j, 1], normal[j, 2] = x / size, y / size, z / size
         else:
@@ -172,7 +171,7 @@ def _off_line(x, y, z, px, py, pz, nx, ny, nz):
     ox, oy, oz = x - px, y - py, z - pz
     along = (ox * nx + oz * nz) + oy * ny
     ex, ey, ez = ox - along * nx, oy - along * ny, oz - along * nz
-    return np.sqrt((ex * ex + ey * ey) + ez * ez)
+    return length(ex, ey, ez)
 
 
 @compiled

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import compiled, maximum, minimum
+from .neighbours_kernel import compiled, length, maximum, minimum
 from .parallel import map_blocks, thread_blocks
 
 #: The normalisation of :func:`core.quality.triangle_quality` (an equilateral triangle scores 1).
@@ -75,18 +75,12 @@ def warm_up() -> int:
 
 
 @compiled
-def _length(x, y, z):
-    """:func:`core.vectors.length`."""
-    return np.sqrt((x * x + y * y) + z * z)
-
-
-@compiled
 def _triangle(ab, bc, ca, ux, uy, uz, vx, vy, vz, nx, ny, nz):
     """The inner ``quality`` of :func:`core.quality._split_quality_of`: the
     triangle with sides ab, bc, ca and cross(b - a, c - a) = cross(u, v),
     0 when it faces away from the quad's normal n."""
     tx, ty, tz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-    area = 0.5 * _length(tx, ty, tz)
+    area = 0.5 * length(tx, ty, tz)
     longest = maximum(maximum(ab, bc), ca)
     denominator = (ab + bc + ca) * longest
     q = _SCALE * area / denominator if denominator > 0 else 0.0
@@ -110,8 +104,8 @@ def _fill(nodes, quads, start, stop, use_second, quality, normal, normals):
         d30x, d30y, d30z = x0 - x3, y0 - y3, z0 - z3
         d02x, d02y, d02z = x2 - x0, y2 - y0, z2 - z0
         d13x, d13y, d13z = x3 - x1, y3 - y1, z3 - z1
-        l01, l12, l23 = _length(d01x, d01y, d01z), _length(d12x, d12y, d12z), _length(d23x, d23y, d23z)
-        l30, l02, l13 = _length(d30x, d30y, d30z), _length(d02x, d02y, d02z), _length(d13x, d13y, d13z)
+        l01, l12, l23 = length(d01x, d01y, d01z), length(d12x, d12y, d12z), length(d23x, d23y, d23z)
+        l30, l02, l13 = length(d30x, d30y, d30z), length(d02x, d02y, d02z), length(d13x, d13y, d13z)
         # The quad's normal: half the cross product of its diagonals.
         nx = 0.5 * (d02y * d13z - d02z * d13y)
         ny = 0.5 * (d02z * d13x - d02x * d13z)
