@@ -37,6 +37,59 @@ def test_same_points_as_numpy_with_ties_and_missing_neighbours(kernel, k, tries)
     assert got.shape == expected.shape and np.array_equal(got, expected)
 
 
+@pytest.mark.parametrize("k,tries,radius", [(24, 3, 1.5), (24, 3, 1.0), (5, 3, 2.0), (2, 3, 1.5), (24, 1, 1.5)])
+def test_fused_search_chooses_the_points_of_the_two_steps(kernel, k, tries, radius):
+    """The k nearest within the radius then the few closest to the line, in
+    one pass (the projection's step 1 with numba), against the index's
+    nearest points then :func:`closest_to_lines` (each tested against the
+    KD-tree and numpy): the same point numbers. Lattice data with
+    duplicates put many points at exactly the radius (left out) and at
+    equal distances, from the node and from the line."""
+    from core.neighbours_kernel import ColumnIndex
+
+    rng = np.random.default_rng(k + 10 * tries)
+    data = np.round(rng.uniform(0, 12, (6000, 3)) * 2) / 2
+    data = np.concatenate([data, data[:500]])
+    q = 10_000
+    p = np.round(rng.uniform(-1, 13, (q, 3)) * 2) / 2
+    normal = np.eye(3)[rng.integers(0, 3, q)] * rng.choice([-1.0, 1.0], (q, 1))
+    tilted = rng.random(q) < 0.3
+    normal[tilted] = rng.normal(size=(tilted.sum(), 3))
+    normal[tilted] /= np.linalg.norm(normal[tilted], axis=1, keepdims=True)
+    p[-50:] += 100.0  # nodes with no point within the radius
+    for cell in (0.7, 1.5 * radius, 5.0):
+        index = ColumnIndex(data, cell)
+        expected = kernel.closest_to_lines(data, index.nearest(p, k, radius)[1], p, normal, tries)
+        got = kernel.candidates_near_lines(index, p, normal, k, radius, tries)
+        assert got.shape == expected.shape and np.array_equal(got, expected)
+    assert (expected[-50:] == len(data)).all() and (expected[:-50, 0] < len(data)).mean() > 0.8
+
+
+def test_fused_search_chooses_the_points_of_numpy_from_a_kd_tree(kernel):
+    """Against the projection's numpy steps on surfaces sampled at random (no ties)."""
+    from core.neighbours import nearest, search_tree
+    from core.neighbours_kernel import ColumnIndex
+
+    rng = np.random.default_rng(4)
+    xy = rng.uniform(0, 30, (20_000, 2))
+    data = np.column_stack([xy, np.where(xy[:, 0] > 15, 6.0, 0.0) + 0.05 * rng.normal(size=len(xy))])
+    p = data[rng.integers(0, len(data), 8000)] + rng.normal(scale=0.4, size=(8000, 3))
+    normal = rng.normal(size=(8000, 3)) + [0, 0, 3]
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    expected = numpy_choice(data, nearest(search_tree(data), data, p, 24, 1.5)[1], p, normal, 3)
+    got = kernel.candidates_near_lines(ColumnIndex(data, 1.5), p, normal, 24, 1.5, 3)
+    assert np.array_equal(got, expected)
+
+
+def test_fused_search_on_fewer_points_than_asked(kernel):
+    from core.neighbours_kernel import ColumnIndex
+
+    data = np.array([[3.0, 4.0, 7.0], [0.0, 0.0, -2.0], [0.0, 1.0, 5.0]])
+    got = kernel.candidates_near_lines(ColumnIndex(data, 1.0), np.zeros((2, 3)), np.array([[0, 0, 1.0]] * 2),
+                                       24, 10.0, 5)
+    assert got.tolist() == [[1, 2, 0]] * 2  # min(tries, k, len(data)) columns, all found
+
+
 def test_rows_with_ties_are_ordered_by_coordinates(kernel):
     # Four points at the same distance from the vertical line: x, then y, then z decide.
     data = np.array([[1.0, 0, 5], [0, 1, 2], [0, -1, 3], [-1, 0, 4], [0, 1, 1]])
