@@ -5,7 +5,7 @@ import pytest
 from scipy import ndimage
 
 from core import blocks as blocks_module
-from core.classify import AIR, BUILDING, GROUND
+from core.classify import AIR, BUILDING, FACE_ADJACENCY, GROUND
 from core.grid import VoxelGrid
 
 
@@ -29,6 +29,31 @@ def random_city(seed, shape=(60, 50, 30)):
     loose = rng.integers(0, shape, (200, 3))
     labels[tuple(loose.T)] = BUILDING
     return labels, VoxelGrid(np.zeros(3), np.array([10.0, 20.0, -3.0]), 0.5, shape)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_runs_number_the_volumes_as_scipy(kernel, seed):
+    """Random grids from one voxel to a few thousand, sparse to dense (long
+    runs, overhangs, columns of several runs), flat along any axis."""
+    rng = np.random.default_rng(seed)
+    shape = tuple(int(v) for v in rng.integers(1, 16, 3))
+    fill = rng.uniform(0.1, 0.8)
+    labels = np.where(rng.random(shape) < fill, BUILDING, np.where(rng.random(shape) < 0.5, GROUND, AIR))
+    labels = labels.astype(np.uint8)
+    expected, n = ndimage.label(labels == BUILDING, structure=FACE_ADJACENCY)
+    got, m = kernel.label_runs(labels, BUILDING)
+    assert got.dtype == np.int32 and m == n and np.array_equal(got, expected)
+
+
+def test_runs_number_a_city_as_scipy(kernel):
+    labels, _ = random_city(3)
+    expected, n = ndimage.label(labels == BUILDING, structure=FACE_ADJACENCY)
+    got, m = kernel.label_runs(labels, BUILDING)
+    assert n > 50 and m == n and np.array_equal(got, expected)
+    # No building voxel at all, and a grid of one.
+    assert kernel.label_runs(np.full((3, 4, 5), AIR, np.uint8), BUILDING)[1] == 0
+    one, k = kernel.label_runs(np.full((1, 1, 1), BUILDING, np.uint8), BUILDING)
+    assert k == 1 and one.tolist() == [[[1]]]
 
 
 def test_block_extents_are_numpys(monkeypatch, kernel):
