@@ -1,8 +1,10 @@
-"""Compiled passes over the labelled blocks (numba, :mod:`core.jit`).
+"""Compiled labelling of the blocks and passes over them (numba, :mod:`core.jit`).
 
-The blocks' attributes (:func:`core.blocks.block_attributes`) need each
-block's voxel count, the columns it covers and its lowest and highest
-layer; dropping the small blocks (:func:`core.blocks.drop_blocks`,
+The labelling (:func:`label_runs`) joins runs of building voxels along z,
+a few per building column, where scipy joins voxel to voxel. The blocks'
+attributes (:func:`core.blocks.block_attributes`) need each block's voxel
+count, the columns it covers and its lowest and highest layer; dropping
+the small blocks (:func:`core.blocks.drop_blocks`,
 :func:`core.blocks.keep_blocks`) turns their voxels into air and numbers
 the others again. numpy does it with a list of the block voxels
 (``flatnonzero`` of the grid), ``bincount``, a sort of the columns' keys and
@@ -28,8 +30,8 @@ def label_runs(labels: np.ndarray, value: int) -> tuple[np.ndarray, int]:
     all cores, are joined to the runs they overlap in the columns before it
     along x and along y (a union-find over the runs, a few per building
     column), then painted with their volume's number. scipy labels every
-    voxel of the grid and its mask first: on the 85 M voxels of the 1 km
-    synthetic city 0.45 s, this a fifth of that.
+    voxel of the grid (and of its mask, made first): on the 85 M voxels of
+    the 1 km synthetic city 0.32 s, this 0.07 s.
 
     Examples
     --------

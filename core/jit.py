@@ -2,8 +2,8 @@
 
 A few steps are loops that numpy can only write as chains of whole-array
 passes over large temporaries, or searches that a KD-tree answers more
-generally than city data need: the passes over the labelled blocks
-(:mod:`core.blocks_kernel`), the crossing search of the projection
+generally than city data need: the labelling of the blocks and the passes
+over them (:mod:`core.blocks_kernel`), the crossing search of the projection
 (:mod:`core.crossing_kernel`, millions of face pairs, each a few dozen
 arithmetic operations), the nearest data points (:mod:`core.neighbours_kernel`,
 a grid of columns), the points a node tries (:mod:`core.projection_kernel`),
