@@ -19,6 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
+from . import jit
 from .classify import AIR, GROUND
 from .grid import VoxelGrid
 from .topology import dense_unique
@@ -29,11 +30,11 @@ REGION_NAMES = {GROUND_REGION: "ground", AIR_REGION: "air", OUTSIDE_REGION: "out
 
 # Corner offsets (lattice steps) of a face normal to each axis, counter-clockwise
 # seen from the positive side of the axis (so the normal is +axis).
-_FACE_CORNERS = {
-    0: np.array([[0, 0, 0], [0, 1, 0], [0, 1, 1], [0, 0, 1]]),
-    1: np.array([[0, 0, 0], [0, 0, 1], [1, 0, 1], [1, 0, 0]]),
-    2: np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]),
-}
+_CORNERS = np.array([
+    [[0, 0, 0], [0, 1, 0], [0, 1, 1], [0, 0, 1]],
+    [[0, 0, 0], [0, 0, 1], [1, 0, 1], [1, 0, 0]],
+    [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]],
+])
 
 
 def region_volume(labels: np.ndarray, blocks: np.ndarray) -> np.ndarray:
@@ -80,49 +81,12 @@ class SurfaceModel:
         >>> len(s.nodes), len(s.quads), len(s.closed_surface(1))
         (16, 16, 6)
         """
-        padded = np.pad(regions, 1, constant_values=OUTSIDE_REGION)
-        _, py, pz = padded.shape
-        cells = padded.ravel()
-        nx1, ny1, _ = (np.asarray(regions.shape) + 1)
-        quads, pairs = [], []
-        for axis in range(3):
-            lower = [slice(None)] * 3
-            upper = [slice(None)] * 3
-            lower[axis] = slice(0, -1)
-            upper[axis] = slice(1, None)
-            back = padded[tuple(lower)]
-            front = padded[tuple(upper)]
-            # The differing pairs in C order (as np.argwhere lists them), as
-            # flat indices split by divmod: argwhere's (F, 3) table and the
-            # gathers through it took half of the extraction.
-            where = np.flatnonzero(back != front)
-            i, rest = np.divmod(where, back.shape[1] * back.shape[2])
-            j, k = np.divmod(rest, back.shape[2])
-            del where, rest
-            # back[i, j, k] is padded[i, j, k]; front is one step along the axis.
-            at = (i * py + j) * pz + k
-            pairs.append(np.column_stack([cells[at], cells[at + (py * pz, pz, 1)[axis]]]))
-            del at
-            # Padded cell p and p + e_axis share the face whose lowest lattice
-            # node is (p - 1) + e_axis in unpadded node indices.
-            base = [i - 1, j - 1, k - 1]
-            base[axis] += 1
-            del i, j, k
-            # The flat index is linear in (i, j, k): the base node's, plus each
-            # corner's offset (no (F, 4, 3) table of corners: 470 MB on a city).
-            first = base[0] + nx1 * (base[1] + ny1 * base[2])
-            del base
-            corner = _FACE_CORNERS[axis]
-            quads.append(first[:, None] + (corner[:, 0] + nx1 * (corner[:, 1] + ny1 * corner[:, 2]))[None, :])
-        # Freed before the node numbering's lattice-sized tables are made.
-        del padded, cells, back, front
-        flat = np.concatenate(quads)
-        del quads
-        used, inverse = unique_nodes(flat, nx1 * ny1 * (regions.shape[2] + 1))
+        nx1, ny1, nz1 = (np.asarray(regions.shape) + 1)
+        flat, pairs = faces_between(regions)
+        used, inverse = unique_nodes(flat, nx1 * ny1 * nz1)
+        del flat
         ijk = np.column_stack([used % nx1, (used // nx1) % ny1, used // (nx1 * ny1)])
-        return cls(nodes=grid.node_xyz(ijk),
-                   quads=inverse.reshape(-1, 4).astype(np.int64),
-                   regions=np.concatenate(pairs).astype(np.int32))
+        return cls(nodes=grid.node_xyz(ijk), quads=inverse.reshape(-1, 4).astype(np.int64), regions=pairs)
 
     def triangulated(self) -> "SurfaceModel":
         """The same model with every quad split into its two best triangles.
@@ -272,6 +236,62 @@ def unique_pairs(pairs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     keys, which = dense_unique((pairs[:, 0] - low).astype(np.int64) * span + (pairs[:, 1] - low),
                                return_inverse=True)
     return np.column_stack([keys // span, keys % span]) + low, which.ravel()
+
+
+def faces_between(regions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every face between two voxels of different regions, the domain padded
+    with ``OUTSIDE_REGION``: its corners as flat lattice node numbers (M, 4),
+    ``i + (nx + 1) (j + (ny + 1) k)``, and the regions behind and in front of
+    it (M, 2) int32; the faces normal to x, then y, then z, each axis's in
+    the C order of the voxel behind them.
+
+    Examples
+    --------
+    >>> quads, pairs = faces_between(np.ones((1, 1, 1), np.int32))
+    >>> len(quads), pairs[:2].tolist()
+    (6, [[-3, 1], [1, -3]])
+    """
+    # The same faces in two passes over the volume, no padded copy (core.surface_kernel).
+    found = jit.run("surface_kernel", "faces_between", regions, OUTSIDE_REGION, _CORNERS, size=regions.size)
+    if found is not None:
+        return found
+    padded = np.pad(regions, 1, constant_values=OUTSIDE_REGION)
+    _, py, pz = padded.shape
+    cells = padded.ravel()
+    nx1, ny1, _ = (np.asarray(regions.shape) + 1)
+    quads, pairs = [], []
+    for axis in range(3):
+        lower = [slice(None)] * 3
+        upper = [slice(None)] * 3
+        lower[axis] = slice(0, -1)
+        upper[axis] = slice(1, None)
+        back = padded[tuple(lower)]
+        front = padded[tuple(upper)]
+        # The differing pairs in C order (as np.argwhere lists them), as
+        # flat indices split by divmod: argwhere's (F, 3) table and the
+        # gathers through it took half of the extraction.
+        where = np.flatnonzero(back != front)
+        i, rest = np.divmod(where, back.shape[1] * back.shape[2])
+        j, k = np.divmod(rest, back.shape[2])
+        del where, rest
+        # back[i, j, k] is padded[i, j, k]; front is one step along the axis.
+        at = (i * py + j) * pz + k
+        pairs.append(np.column_stack([cells[at], cells[at + (py * pz, pz, 1)[axis]]]))
+        del at
+        # Padded cell p and p + e_axis share the face whose lowest lattice
+        # node is (p - 1) + e_axis in unpadded node indices.
+        base = [i - 1, j - 1, k - 1]
+        base[axis] += 1
+        del i, j, k
+        # The flat index is linear in (i, j, k): the base node's, plus each
+        # corner's offset (no (F, 4, 3) table of corners: 470 MB on a city).
+        first = base[0] + nx1 * (base[1] + ny1 * base[2])
+        del base
+        corner = _CORNERS[axis]
+        quads.append(first[:, None] + (corner[:, 0] + nx1 * (corner[:, 1] + ny1 * corner[:, 2]))[None, :])
+    # Freed before the node numbering's lattice-sized tables are made.
+    del padded, cells, back, front
+    return np.concatenate(quads), np.concatenate(pairs).astype(np.int32)
 
 
 def unique_nodes(flat: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:

@@ -1,0 +1,120 @@
+"""Compiled extraction of the faces between regions (numba, :mod:`core.jit`).
+
+:meth:`core.surface.SurfaceModel.from_regions` lists every face between two
+voxels of different regions, the domain padded with the outside region. numpy
+pads the region volume (a copy of it), compares it with itself shifted along
+each axis (a mask of the grid's size per axis), lists the differing pairs and
+makes their corners through a chain of (F,) and (F, 4) temporaries: on the 85
+M voxels of the 1 km synthetic city, 1.4 s and a few GB of fresh memory. Here
+each axis is two passes over the columns along z of the volume, one that
+counts the faces, one that writes them, on all cores (slabs of x), without
+padding: the same faces, in the same order (numpy's C order over the pairs,
+axis after axis), with the same corners and regions.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .neighbours_kernel import compiled
+from .parallel import map_blocks, thread_blocks
+
+
+def faces_between(regions: np.ndarray, outside: int, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The faces between voxels of different regions of ``regions`` padded
+    with ``outside``: their corners as flat lattice node numbers (M, 4),
+    ``i + (nx + 1) (j + (ny + 1) k)``, and their back and front regions (M, 2).
+
+    Parameters
+    ----------
+    regions : ndarray of int32 (nx, ny, nz)
+    outside : int
+        The region of the padding.
+    corners : ndarray of int (3, 4, 3)
+        Per axis, the lattice offsets of a face's four corners from its
+        lowest one (:data:`core.surface._CORNERS`).
+
+    Returns
+    -------
+    quads : ndarray of int64 (M, 4)
+    pairs : ndarray of int32 (M, 2)
+
+    Examples
+    --------
+    One voxel of region 1 in the outside region 0: its six faces.
+
+    >>> from core.surface import _CORNERS
+    >>> quads, pairs = faces_between(np.ones((1, 1, 1), np.int32), 0, _CORNERS)
+    >>> len(quads), pairs.tolist()[:2], quads[0].tolist()
+    (6, [[0, 1], [1, 0]], [0, 2, 6, 4])
+    """
+    regions = np.ascontiguousarray(regions, dtype=np.int32)
+    nx, ny, nz = regions.shape
+    nx1, ny1 = nx + 1, ny + 1
+    offsets = np.array([[c[0] + nx1 * (c[1] + ny1 * c[2]) for c in corners[axis]] for axis in range(3)],
+                       dtype=np.int64)
+    # The pairs along an axis start at every padded voxel before its last layer along it.
+    slabs = [thread_blocks(nx + 2 - (axis == 0)) for axis in range(3)]
+    counts = [map_blocks(lambda rows, axis=axis: _faces(regions, outside, axis, rows.start, rows.stop, offsets,
+                                                        _NONE, _NO_PAIRS, 0), slabs[axis])
+              for axis in range(3)]
+    first = np.cumsum([0] + [n for part in counts for n in part])
+    quads = np.empty((int(first[-1]), 4), dtype=np.int64)
+    pairs = np.empty((int(first[-1]), 2), dtype=np.int32)
+    at = iter(first[:-1].tolist())
+    jobs = [(axis, rows, next(at)) for axis in range(3) for rows in slabs[axis]]
+    map_blocks(lambda job: _faces(regions, outside, job[0], job[1].start, job[1].stop, offsets, quads, pairs,
+                                  job[2]), jobs)
+    return quads, pairs
+
+
+#: Empty outputs: a call that only counts.
+_NONE = np.empty((0, 4), dtype=np.int64)
+_NO_PAIRS = np.empty((0, 2), dtype=np.int32)
+
+
+def warm_up() -> int:
+    """Compile for the region volumes the pipeline passes (int32)."""
+    from .surface import _CORNERS
+
+    quads, pairs = faces_between(np.ones((1, 1, 1), np.int32), 0, _CORNERS)
+    assert len(quads) == 6 and pairs.tolist()[:2] == [[0, 1], [1, 0]], pairs
+    return len(quads)
+
+
+@compiled
+def _faces(regions, outside, axis, start, stop, offsets, quads, pairs, at):
+    """The faces along ``axis`` between the padded voxels whose first index
+    is in ``start:stop`` and the next ones along the axis, in C order:
+    counted, or written into ``quads`` and ``pairs`` from row ``at`` on.
+    Returns how many."""
+    nx, ny, nz = regions.shape
+    nx1, ny1 = nx + 1, ny + 1
+    write = len(quads) > 0
+    n = 0
+    sx, sy, sz = nx + 2 - (axis == 0), ny + 2 - (axis == 1), nz + 2 - (axis == 2)
+    for i in range(start, stop):
+        for j in range(sy):
+            # Padded voxel (i, j, k) and the next along the axis: columns of
+            # the volume (or of the padding) one beside the other.
+            ib, jb = i - 1, j - 1
+            i_f, j_f = ib + (axis == 0), jb + (axis == 1)
+            back_in = 0 <= ib < nx and 0 <= jb < ny
+            front_in = 0 <= i_f < nx and 0 <= j_f < ny
+            if not back_in and not front_in:
+                continue  # padding beside padding
+            for k in range(sz):
+                kb = k - 1
+                k_f = kb + (axis == 2)
+                back = regions[ib, jb, kb] if back_in and 0 <= kb < nz else outside
+                front = regions[i_f, j_f, k_f] if front_in and 0 <= k_f < nz else outside
+                if back == front:
+                    continue
+                if write:
+                    # The face's lowest lattice node: (padded voxel - 1) + one step along the axis.
+                    base = (ib + (axis == 0)) + nx1 * ((jb + (axis == 1)) + ny1 * (kb + (axis == 2)))
+                    row = at + n
+                    for c in range(4):
+                        quads[row, c] = base + offsets[axis, c]
+                    pairs[row, 0], pairs[row, 1] = back, front
+                n += 1
+    return n

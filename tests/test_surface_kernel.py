@@ -1,0 +1,57 @@
+"""The compiled face extraction (core.surface_kernel) against numpy's
+(core.surface.faces_between): the same faces, corners and regions, in the same order."""
+import numpy as np
+import pytest
+
+from core import surface
+
+
+@pytest.fixture
+def kernel(compiled):
+    return compiled("surface_kernel")
+
+
+def numpy_faces(monkeypatch, regions):
+    with monkeypatch.context() as patch:
+        patch.setenv("URBANVOX_JIT", "0")
+        return surface.faces_between(regions)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_faces_are_numpys_on_random_volumes(monkeypatch, kernel, seed):
+    """Volumes from one voxel to a few hundred, flat along any axis, with
+    regions that change voxel to voxel or hardly at all."""
+    rng = np.random.default_rng(seed)
+    shape = tuple(int(v) for v in rng.integers(1, 9, 3))
+    regions = rng.integers(-2, 1 + seed % 4, shape).astype(np.int32)
+    expected = numpy_faces(monkeypatch, regions)
+    got = kernel.faces_between(regions, surface.OUTSIDE_REGION, surface._CORNERS)
+    for a, b in zip(got, expected):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
+def test_surface_models_of_a_city_are_the_same(monkeypatch, kernel):
+    """Ground, air and forty blocks that touch and overhang: the model numpy
+    makes, node for node and quad for quad."""
+    from core.grid import VoxelGrid
+
+    rng = np.random.default_rng(1)
+    shape = (60, 50, 24)
+    regions = np.full(shape, surface.AIR_REGION, np.int32)
+    regions[:, :, :5] = surface.GROUND_REGION
+    for block in range(1, 41):
+        x, y = rng.integers(0, 52), rng.integers(0, 42)
+        z = 5 + rng.integers(0, 3)
+        regions[x:x + rng.integers(2, 9), y:y + rng.integers(2, 9), z:z + rng.integers(2, 15)] = block
+    grid = VoxelGrid(np.zeros(3), np.array([100.0, 200.0, -4.0]), 0.5, shape)
+    with monkeypatch.context() as patch:
+        patch.setenv("URBANVOX_JIT", "0")
+        expected = surface.SurfaceModel.from_regions(grid, regions)
+    got = surface.SurfaceModel.from_regions(grid, regions)
+    assert len(got.quads) > 5000
+    for name in ("nodes", "quads", "regions"):
+        assert np.array_equal(getattr(got, name), getattr(expected, name)), name
+    # Every block's surface is closed: each edge of its quads is used twice.
+    quads = got.closed_surface(7)
+    edges = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
+    assert len(quads) >= 6 and (np.unique(edges, axis=0, return_counts=True)[1] % 2 == 0).all()
