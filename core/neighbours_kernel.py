@@ -262,6 +262,28 @@ def before(d1, x1, y1, z1, i1, d2, x2, y2, z2, i2):
 
 
 @compiled
+def own_column_first(x, y, x0, y0, cell, ix0, ix1, iy0, iy1):
+    """For a search from (x, y) over the columns ``ix0..ix1`` by ``iy0..iy1``:
+    the place of (x, y)'s own column among them (clipped to them), their
+    width along x and their number, for :func:`column_in_turn`."""
+    width = ix1 - ix0 + 1
+    own = (min(max(int(np.floor((x - x0) / cell)), ix0), ix1) - ix0
+           + width * (min(max(int(np.floor((y - y0) / cell)), iy0), iy1) - iy0))
+    return own, width, width * (iy1 - iy0 + 1)
+
+
+@compiled
+def column_in_turn(visit, own, width, ix0, iy0):
+    """The column (ix, iy) a search visits at its turn ``visit``: its own
+    column first, then the others row by row. The nearest points come
+    early, and the bound of the k-th found keeps most of the other columns'
+    points out of the sort (the 12 nearest of 0.9 M points of the 1 km
+    city: 1.85 -> 1.43 s on one core); the points found do not depend on it."""
+    m = own if visit == 0 else (visit - 1 if visit - 1 < own else visit)
+    return ix0 + m % width, iy0 + m // width
+
+
+@compiled
 def _search(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, points, dist, idx, key, q):
     """The k nearest within ``radius`` of (qx, qy, qz) into row ``q`` of
     ``dist`` and ``idx`` (in order, ``key`` holding their coordinates);
@@ -272,37 +294,38 @@ def _search(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, p
     ix0, ix1, iy0, iy1 = column_range(qx, qy, box, x0, y0, cell, nx, ny)
     kept = 0
     last2 = np.inf  # squared distance of the k-th kept
-    for iy in range(iy0, iy1 + 1):
-        for ix in range(ix0, ix1 + 1):
-            t, hi = rising_from(start, points[2], ix + nx * iy, qz - box)
-            while t < hi and points[2, t] <= qz + box:
-                x, y, z = points[0, t], points[1, t], points[2, t]
-                t += 1
-                # scipy's sum: (0 + dx^2) + dy^2 + dz^2, in that order.
-                dx, dy, dz = x - qx, y - qy, z - qz
-                d2 = (dx * dx + dy * dy) + dz * dz
-                if d2 > r2 or (strict and d2 == r2):
-                    continue
-                # Beyond the k-th by more than round-off: its square root cannot tie.
-                if kept == k and d2 > last2 * (1 + 1e-15):
-                    continue
-                d = np.sqrt(d2)
-                i = order[t - 1]
-                slot = kept
-                while slot > 0 and before(d, x, y, z, i, dist[q, slot - 1], key[slot - 1, 0],
-                                           key[slot - 1, 1], key[slot - 1, 2], idx[q, slot - 1]):
-                    slot -= 1
-                if slot >= k:
-                    continue
-                for s in range(kept if kept < k else k - 1, slot, -1):
-                    dist[q, s], idx[q, s] = dist[q, s - 1], idx[q, s - 1]
-                    key[s, 0], key[s, 1], key[s, 2] = key[s - 1, 0], key[s - 1, 1], key[s - 1, 2]
-                dist[q, slot], idx[q, slot] = d, i
-                key[slot, 0], key[slot, 1], key[slot, 2] = x, y, z
-                if kept < k:
-                    kept += 1
-                if kept == k:
-                    last2 = dist[q, k - 1] * dist[q, k - 1]
+    own, width, count = own_column_first(qx, qy, x0, y0, cell, ix0, ix1, iy0, iy1)
+    for visit in range(count):
+        ix, iy = column_in_turn(visit, own, width, ix0, iy0)
+        t, hi = rising_from(start, points[2], ix + nx * iy, qz - box)
+        while t < hi and points[2, t] <= qz + box:
+            x, y, z = points[0, t], points[1, t], points[2, t]
+            t += 1
+            # scipy's sum: (0 + dx^2) + dy^2 + dz^2, in that order.
+            dx, dy, dz = x - qx, y - qy, z - qz
+            d2 = (dx * dx + dy * dy) + dz * dz
+            if d2 > r2 or (strict and d2 == r2):
+                continue
+            # Beyond the k-th by more than round-off: its square root cannot tie.
+            if kept == k and d2 > last2 * (1 + 1e-15):
+                continue
+            d = np.sqrt(d2)
+            i = order[t - 1]
+            slot = kept
+            while slot > 0 and before(d, x, y, z, i, dist[q, slot - 1], key[slot - 1, 0],
+                                       key[slot - 1, 1], key[slot - 1, 2], idx[q, slot - 1]):
+                slot -= 1
+            if slot >= k:
+                continue
+            for s in range(kept if kept < k else k - 1, slot, -1):
+                dist[q, s], idx[q, s] = dist[q, s - 1], idx[q, s - 1]
+                key[s, 0], key[s, 1], key[s, 2] = key[s - 1, 0], key[s - 1, 1], key[s - 1, 2]
+            dist[q, slot], idx[q, slot] = d, i
+            key[slot, 0], key[slot, 1], key[slot, 2] = x, y, z
+            if kept < k:
+                kept += 1
+            if kept == k:
+                last2 = dist[q, k - 1] * dist[q, k - 1]
     return kept
 
 

@@ -28,7 +28,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import BOX, before, column_range, compiled, length, maximum, rising_from
+from .neighbours_kernel import (BOX, before, column_in_turn, column_range, compiled, length, maximum,
+                                own_column_first, rising_from)
 from .parallel import map_blocks, thread_blocks
 
 #: Nodes per call of the fused search (blocks on all cores).
@@ -298,72 +299,92 @@ def _near_lines(at, normal, start_row, stop_row, k, radius, x0, y0, cell, nx, ny
         size = 0
         last2 = np.inf  # squared distance of the k-th nearest, once k are found
         ix0, ix1, iy0, iy1 = column_range(qx, qy, box, x0, y0, cell, nx, ny)
-        for iy in range(iy0, iy1 + 1):
-            for ix in range(ix0, ix1 + 1):
-                t, end = rising_from(start, points[2], ix + nx * iy, qz - box)
-                while t < end and points[2, t] <= qz + box:
-                    x, y, z = points[0, t], points[1, t], points[2, t]
-                    t += 1
-                    dx, dy, dz = x - qx, y - qy, z - qz
-                    d2 = (dx * dx + dy * dy) + dz * dz
-                    if d2 >= r2 or (size == k and d2 > last2 * (1 + 1e-15)):
-                        continue
-                    d = np.sqrt(d2)
-                    i = order[t - 1]
-                    if size < k:
-                        c = size  # a new leaf, moved up past the entries that come before it
-                        size += 1
-                        while c > 0:
-                            up = (c - 1) // 2
-                            if not before(heap_key[up, 0], heap_key[up, 1], heap_key[up, 2], heap_key[up, 3],
-                                          heap_point[up], d, x, y, z, i):
-                                break
-                            heap_key[c, 0], heap_key[c, 1], heap_key[c, 2], heap_key[c, 3] = heap_key[up, 0], heap_key[up, 1], heap_key[up, 2], heap_key[up, 3]
-                            heap_point[c] = heap_point[up]
-                            c = up
-                    elif before(d, x, y, z, i, heap_key[0, 0], heap_key[0, 1], heap_key[0, 2], heap_key[0, 3],
-                                heap_point[0]):
-                        c = 0  # replaces the top, moved down past the entries that come after it
-                        while True:
-                            child = 2 * c + 1
-                            if child >= k:
-                                break
-                            if child + 1 < k and before(heap_key[child, 0], heap_key[child, 1], heap_key[child, 2],
-                                                        heap_key[child, 3], heap_point[child],
-                                                        heap_key[child + 1, 0], heap_key[child + 1, 1],
-                                                        heap_key[child + 1, 2], heap_key[child + 1, 3],
-                                                        heap_point[child + 1]):
-                                child += 1
-                            if not before(d, x, y, z, i, heap_key[child, 0], heap_key[child, 1],
-                                          heap_key[child, 2], heap_key[child, 3], heap_point[child]):
-                                break
-                            heap_key[c, 0], heap_key[c, 1], heap_key[c, 2], heap_key[c, 3] = heap_key[child, 0], heap_key[child, 1], heap_key[child, 2], heap_key[child, 3]
-                            heap_point[c] = heap_point[child]
-                            c = child
-                    else:
-                        continue
-                    heap_key[c, 0], heap_key[c, 1], heap_key[c, 2], heap_key[c, 3] = d, x, y, z
-                    heap_point[c] = i
-                    if size == k:
-                        last2 = heap_key[0, 0] * heap_key[0, 0]
+        own, width, count = own_column_first(qx, qy, x0, y0, cell, ix0, ix1, iy0, iy1)
+        for visit in range(count):
+            ix, iy = column_in_turn(visit, own, width, ix0, iy0)
+            t, end = rising_from(start, points[2], ix + nx * iy, qz - box)
+            while t < end and points[2, t] <= qz + box:
+                x, y, z = points[0, t], points[1, t], points[2, t]
+                t += 1
+                dx, dy, dz = x - qx, y - qy, z - qz
+                d2 = (dx * dx + dy * dy) + dz * dz
+                if d2 >= r2 or (size == k and d2 > last2 * (1 + 1e-15)):
+                    continue
+                size = _offer(heap_key, heap_point, size, k, np.sqrt(d2), x, y, z, order[t - 1])
+                if size == k:
+                    last2 = heap_key[0, 0] * heap_key[0, 0]
         # The few closest to the line among them, in order (as _closest).
         nx_, ny_, nz_ = normal[q, 0], normal[q, 1], normal[q, 2]
         kept = 0
         for h in range(size):
             x, y, z, i = heap_key[h, 1], heap_key[h, 2], heap_key[h, 3], heap_point[h]
             d = _off_line(x, y, z, qx, qy, qz, nx_, ny_, nz_)
-            slot = kept
-            while slot > 0 and before(d, x, y, z, i, best_key[slot - 1, 0], best_key[slot - 1, 1],
-                                      best_key[slot - 1, 2], best_key[slot - 1, 3], best_point[slot - 1]):
-                slot -= 1
-            if slot >= tries:
-                continue
-            for s in range(kept if kept < tries else tries - 1, slot, -1):
-                best_key[s, 0], best_key[s, 1], best_key[s, 2], best_key[s, 3] = best_key[s - 1, 0], best_key[s - 1, 1], best_key[s - 1, 2], best_key[s - 1, 3]
-                best_point[s] = best_point[s - 1]
-            best_key[slot, 0], best_key[slot, 1], best_key[slot, 2], best_key[slot, 3] = d, x, y, z
-            best_point[slot] = i
-            if kept < tries:
-                kept += 1
+            kept = _insert(best_key, best_point, kept, tries, d, x, y, z, i)
         for s in range(tries):
             out[q, s] = best_point[s] if s < kept else n
+
+
+@compiled
+def _offer(heap_key, heap_point, size, k, d, x, y, z, i):
+    """Offer point ``i`` (distance ``d``, coordinates x, y, z) to the heap of
+    the first ``k`` in the order of :func:`core.neighbours_kernel.before`
+    (rows (d, x, y, z) of ``heap_key``, numbers in ``heap_point``; every
+    entry comes after its children, the last of them on top), ``size`` of
+    them held. Returns the new size."""
+    if size < k:
+        c = size  # a new leaf, moved up past the entries it comes after
+        size += 1
+        while c > 0:
+            up = (c - 1) // 2
+            if not before(heap_key[up, 0], heap_key[up, 1], heap_key[up, 2], heap_key[up, 3], heap_point[up],
+                          d, x, y, z, i):
+                break
+            _copy_entry(heap_key, heap_point, up, c)
+            c = up
+    elif before(d, x, y, z, i, heap_key[0, 0], heap_key[0, 1], heap_key[0, 2], heap_key[0, 3], heap_point[0]):
+        c = 0  # replaces the top, moved down past the entries that come after it
+        while True:
+            child = 2 * c + 1
+            if child >= k:
+                break
+            if child + 1 < k and before(heap_key[child, 0], heap_key[child, 1], heap_key[child, 2],
+                                        heap_key[child, 3], heap_point[child], heap_key[child + 1, 0],
+                                        heap_key[child + 1, 1], heap_key[child + 1, 2], heap_key[child + 1, 3],
+                                        heap_point[child + 1]):
+                child += 1
+            if not before(d, x, y, z, i, heap_key[child, 0], heap_key[child, 1], heap_key[child, 2],
+                          heap_key[child, 3], heap_point[child]):
+                break
+            _copy_entry(heap_key, heap_point, child, c)
+            c = child
+    else:
+        return size
+    heap_key[c, 0], heap_key[c, 1], heap_key[c, 2], heap_key[c, 3] = d, x, y, z
+    heap_point[c] = i
+    return size
+
+
+@compiled
+def _insert(best_key, best_point, kept, tries, d, x, y, z, i):
+    """Insert point ``i`` in the list of the first ``tries`` in order (rows
+    (d, x, y, z) of ``best_key``, numbers in ``best_point``), ``kept`` of
+    them held. Returns the new count."""
+    slot = kept
+    while slot > 0 and before(d, x, y, z, i, best_key[slot - 1, 0], best_key[slot - 1, 1], best_key[slot - 1, 2],
+                              best_key[slot - 1, 3], best_point[slot - 1]):
+        slot -= 1
+    if slot >= tries:
+        return kept
+    for s in range(kept if kept < tries else tries - 1, slot, -1):
+        _copy_entry(best_key, best_point, s - 1, s)
+    best_key[slot, 0], best_key[slot, 1], best_key[slot, 2], best_key[slot, 3] = d, x, y, z
+    best_point[slot] = i
+    return kept + 1 if kept < tries else kept
+
+
+@compiled
+def _copy_entry(key, point, source, target):
+    """Copy row ``source`` of ``key`` and ``point`` to row ``target``."""
+    key[target, 0], key[target, 1], key[target, 2], key[target, 3] = key[source, 0], key[source, 1], \
+        key[source, 2], key[source, 3]
+    point[target] = point[source]

@@ -19,7 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import BOX, ColumnIndex, column_range, compiled, rising_from
+from .neighbours_kernel import (BOX, ColumnIndex, column_in_turn, column_range, compiled, own_column_first,
+                                rising_from)
 from .parallel import map_blocks, thread_blocks
 
 #: Faces per block of work on a core.
@@ -99,9 +100,10 @@ def _near(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, s
         cx, cy, cz, a = centre[f, 0], centre[f, 1], centre[f, 2], axis[f]
         ix0, ix1, iy0, iy1 = column_range(cx, cy, box, x0, y0, cell, nx, ny)
         found = False
-        width = ix1 - ix0 + 1
-        for c in range(width * (iy1 - iy0 + 1)):
-            t, end = rising_from(start, points[2], ix0 + c % width + nx * (iy0 + c // width), cz - box)
+        own, width, count = own_column_first(cx, cy, x0, y0, cell, ix0, ix1, iy0, iy1)
+        for visit in range(count):
+            ix, iy = column_in_turn(visit, own, width, ix0, iy0)
+            t, end = rising_from(start, points[2], ix + nx * iy, cz - box)
             while t < end and points[2, t] <= cz + box and not found:
                 dx, dy, dz = points[0, t] - cx, points[1, t] - cy, points[2, t] - cz
                 t += 1
@@ -127,10 +129,11 @@ def _above(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, 
         cx, cy, a = centre[f, 0], centre[f, 1], axis[f]
         ix0, ix1, iy0, iy1 = column_range(cx, cy, box, x0, y0, cell, nx, ny)
         found = False
-        width = ix1 - ix0 + 1
-        for c in range(width * (iy1 - iy0 + 1)):
+        own, width, count = own_column_first(cx, cy, x0, y0, cell, ix0, ix1, iy0, iy1)
+        for visit in range(count):
+            ix, iy = column_in_turn(visit, own, width, ix0, iy0)
             # A column's points by height: those from half a voxel below the centre up.
-            t, end = rising_from(start, points[2], ix0 + c % width + nx * (iy0 + c // width), centre[f, 2] - half)
+            t, end = rising_from(start, points[2], ix + nx * iy, centre[f, 2] - half)
             while t < end and not found:
                 dx, dy = points[0, t] - cx, points[1, t] - cy
                 t += 1
