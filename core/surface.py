@@ -309,6 +309,11 @@ def unique_nodes(flat: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
     >>> used.tolist(), inverse.reshape(2, 2).tolist()
     ([2, 7, 9], [[1, 0], [0, 2]])
     """
+    if size <= 64 * flat.size + 2**26:
+        # The same, with a bit per node of the numbering (core.surface_kernel).
+        found = jit.run("surface_kernel", "unique_nodes", flat, size, size=flat.size)
+        if found is not None:
+            return found
     if size > min(16 * flat.size, 400_000_000):
         return np.unique(flat, return_inverse=True)
     used = np.zeros(size, dtype=bool)

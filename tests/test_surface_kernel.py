@@ -55,3 +55,21 @@ def test_surface_models_of_a_city_are_the_same(monkeypatch, kernel):
     quads = got.closed_surface(7)
     edges = np.sort(np.stack([quads, np.roll(quads, -1, axis=1)], axis=-1).reshape(-1, 2), axis=1)
     assert len(quads) >= 6 and (np.unique(edges, axis=0, return_counts=True)[1] % 2 == 0).all()
+
+
+@pytest.mark.parametrize("dtype", [np.int64, np.int32])
+@pytest.mark.parametrize("size,count", [(1, 5), (64, 100), (65, 3), (10_000, 50_000), (1_000_003, 20_000)])
+def test_unique_nodes_are_numpys(monkeypatch, kernel, dtype, size, count):
+    """Dense and sparse numberings, word edges (64, 65), repeated nodes."""
+    rng = np.random.default_rng(size + count)
+    flat = rng.integers(0, size, (count // 4 + 1, 4)).astype(dtype)
+    flat[0, :2] = [0, size - 1]
+    expected = np.unique(flat, return_inverse=True)
+    with monkeypatch.context() as patch:
+        patch.setenv("URBANVOX_JIT", "0")
+        tables = surface.unique_nodes(flat, size)
+    used, inverse = kernel.unique_nodes(flat, size)
+    assert np.array_equal(used, expected[0]) and np.array_equal(used, tables[0])
+    # numpy's tables give flat's shape, its sort (a numbering much larger than flat) a flat intp.
+    assert inverse.shape == flat.shape and inverse.dtype == np.int32
+    assert np.array_equal(inverse.ravel(), expected[1]) and np.array_equal(inverse.ravel(), tables[1].ravel())
