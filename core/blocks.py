@@ -2,8 +2,9 @@
 
 The paper's advancing front over face-adjacent building cells is a
 connected-component labelling with 6-connectivity, done here by
-``scipy.ndimage.label`` (or over runs of voxels, :mod:`core.blocks_kernel`). Maximum height, footprint ("ground surface") and
-volume per block come from ``bincount`` over the labelled voxels and
+``scipy.ndimage.label`` (or over runs of voxels, :mod:`core.blocks_kernel`).
+Maximum height, footprint ("ground surface") and volume per block come
+from ``bincount`` over the labelled voxels and
 ``find_objects`` (or one compiled pass, :mod:`core.blocks_kernel`), and
 small blocks are dropped by thresholds on them.
 """

@@ -44,7 +44,8 @@ def label_runs(labels: np.ndarray, value: int) -> tuple[np.ndarray, int]:
     labels = np.ascontiguousarray(labels)
     nx, ny, nz = labels.shape
     slabs = thread_blocks(nx)
-    count = np.zeros(nx * ny + 1, np.int64)  # runs of the column before, then where each column's start
+    # count[c + 1]: the runs of column c; its running sum, where each column's runs start.
+    count = np.zeros(nx * ny + 1, np.int64)
     map_blocks(lambda rows: _count_runs(labels, value, rows.start, rows.stop, count), slabs)
     start = np.cumsum(count)
     low = np.empty(start[-1], np.int32)

@@ -2,8 +2,9 @@
 
 A few steps are loops that numpy can only write as chains of whole-array
 passes over large temporaries, or searches that a KD-tree answers more
-generally than city data need: the labelling of the blocks and the passes
-over them (:mod:`core.blocks_kernel`), the crossing search of the projection
+generally than city data need: the critical cubes of the well-composed
+repair (:mod:`core.manifold_kernel`), the labelling of the blocks and the
+passes over them (:mod:`core.blocks_kernel`), the crossing search of the projection
 (:mod:`core.crossing_kernel`, millions of face pairs, each a few dozen
 arithmetic operations), the nearest data points (:mod:`core.neighbours_kernel`,
 a grid of columns), the points a node tries (:mod:`core.projection_kernel`),
@@ -41,8 +42,8 @@ from types import ModuleType
 from .errors import Cancelled
 
 #: The kernel modules of core, each with a ``warm_up()`` (see :func:`warm_up`).
-KERNELS = ("blocks_kernel", "crossing_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel",
-           "smooth_kernel", "support_kernel", "surface_kernel", "topology_kernel")
+KERNELS = ("blocks_kernel", "crossing_kernel", "manifold_kernel", "neighbours_kernel", "projection_kernel",
+           "quality_kernel", "smooth_kernel", "support_kernel", "surface_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

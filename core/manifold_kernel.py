@@ -1,0 +1,82 @@
+"""Compiled search of the critical cubes (numba, :mod:`core.jit`).
+
+The well-composed repair (:func:`core.manifold.make_well_composed`) starts
+from every 2 x 2 x 2 cube of the grid whose label pattern is critical. numpy
+sums the eight corners' labels times 3^bit in int16 slabs (eight shifted
+views, a multiply and an add each), looks the sums up and lists the
+critical ones: 0.3 s per call on the 85 M voxels of the 1 km synthetic city,
+called twice a run. Here each cube's sum is made in one pass along z, on
+all cores (slabs of x), once to count the critical cubes and once to list
+them: 0.1 s for the same cubes, ascending.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .neighbours_kernel import compiled
+from .parallel import map_blocks, thread_blocks
+
+
+def critical_cubes(labels: np.ndarray, critical_by_sum: np.ndarray) -> np.ndarray:
+    """Flat index (of the lowest corner) of every cube whose corners' labels,
+    times 3^bit (bit ``4 di + 2 dj + dk`` for corner (di, dj, dk), as
+    :data:`core.manifold.CORNERS`) and summed, are ``critical_by_sum``;
+    ascending.
+
+    Examples
+    --------
+    Two building voxels (2) meeting along an edge, in air (3):
+
+    >>> labels = np.full((2, 2, 2), 3, np.uint8); labels[0, 0, :] = labels[1, 1, :] = 2
+    >>> from core.manifold import _CRITICAL_BY_LABEL_SUM
+    >>> critical_cubes(labels, _CRITICAL_BY_LABEL_SUM).tolist()
+    [0]
+    """
+    labels = np.ascontiguousarray(labels)
+    nx, ny, nz = labels.shape
+    if nx < 2 or ny < 2 or nz < 2:
+        return np.zeros(0, dtype=np.int64)
+    critical_by_sum = np.ascontiguousarray(critical_by_sum, dtype=np.bool_)
+    slabs = thread_blocks(nx - 1)
+    counts = map_blocks(lambda rows: _critical(labels, critical_by_sum, rows.start, rows.stop, _NONE, 0), slabs)
+    first = np.cumsum([0] + counts)
+    out = np.empty(int(first[-1]), dtype=np.int64)
+    map_blocks(lambda job: _critical(labels, critical_by_sum, job[0].start, job[0].stop, out, job[1]),
+               list(zip(slabs, first[:-1].tolist())))
+    return out
+
+
+#: An empty output: a call that only counts.
+_NONE = np.empty(0, dtype=np.int64)
+
+
+def warm_up() -> int:
+    """Compile for the labels the pipeline passes (uint8)."""
+    from .manifold import _CRITICAL_BY_LABEL_SUM
+
+    labels = np.full((2, 2, 2), 3, np.uint8)
+    labels[0, 0, :] = labels[1, 1, :] = 2
+    found = critical_cubes(labels, _CRITICAL_BY_LABEL_SUM)
+    assert found.tolist() == [0], found
+    return 1
+
+
+@compiled
+def _critical(labels, critical_by_sum, start, stop, out, at):
+    """The critical cubes whose lowest corner's x is in ``start:stop``, in
+    order: counted, or written into ``out`` from ``at`` on. Returns how many."""
+    nx, ny, nz = labels.shape
+    write = len(out) > 0
+    n = 0
+    for i in range(start, stop):
+        for j in range(ny - 1):
+            for k in range(nz - 1):
+                total = (np.int64(labels[i, j, k]) + 3 * np.int64(labels[i, j, k + 1])
+                         + 9 * np.int64(labels[i, j + 1, k]) + 27 * np.int64(labels[i, j + 1, k + 1])
+                         + 81 * np.int64(labels[i + 1, j, k]) + 243 * np.int64(labels[i + 1, j, k + 1])
+                         + 729 * np.int64(labels[i + 1, j + 1, k]) + 2187 * np.int64(labels[i + 1, j + 1, k + 1]))
+                if critical_by_sum[total]:
+                    if write:
+                        out[at + n] = (i * ny + j) * nz + k
+                    n += 1
+    return n
