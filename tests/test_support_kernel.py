@@ -208,3 +208,25 @@ def test_a_failing_kernel_leaves_the_elimination_to_numpy(kernel, monkeypatch):
         assert eliminate_unsupported(labels, g, points, extrude_roofs=True, search=index) == removed > 0
     assert np.array_equal(labels, expected)
     assert index.fallback is not None and len(jit.failures) == 1
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_air_faces_are_numpys(monkeypatch, kernel, seed):
+    """Every building cell, and a scattered subset, of random grids with
+    building cells on the borders (faces out of the grid are not air)."""
+    from core.eliminate import air_faces
+
+    rng = np.random.default_rng(seed)
+    shape = np.array([int(v) for v in rng.integers(1, 30, 3)])
+    labels = rng.choice(np.array([GROUND, BUILDING, AIR], np.uint8), tuple(shape), p=[0.2, 0.5, 0.3])
+    flat = labels.reshape(-1)
+    stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
+    every = np.flatnonzero(flat == BUILDING)
+    for cells in (every, every[rng.random(len(every)) < 0.3]):
+        with monkeypatch.context() as patch:
+            patch.setenv("URBANVOX_JIT", "0")
+            expected = air_faces(flat, cells, shape, stride)
+        got = kernel.air_faces(flat, cells, shape, AIR)
+        for a, b in zip(got, expected):
+            assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
+    assert len(expected[0]) > 0 or len(every) == 0
