@@ -284,7 +284,7 @@ def column_in_turn(visit, own, width, ix0, iy0):
 
 
 @compiled
-def _search(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, points, dist, idx, key, q):
+def k_nearest(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, points, dist, idx, key, q):
     """The k nearest within ``radius`` of (qx, qy, qz) into row ``q`` of
     ``dist`` and ``idx`` (in order, ``key`` holding their coordinates);
     within means ``d^2 < radius^2`` if ``strict``, else ``d^2 <= radius^2``.
@@ -338,14 +338,14 @@ def _nearest(at, start_row, stop_row, k, upper, first, x0, y0, cell, nx, ny, ord
     for q in range(start_row, stop_row):
         qx, qy, qz = at[q, 0], at[q, 1], at[q, 2]
         if bounded:
-            kept = _search(qx, qy, qz, k, upper, True, x0, y0, cell, nx, ny, order, start, points, dist, idx,
+            kept = k_nearest(qx, qy, qz, k, upper, True, x0, y0, cell, nx, ny, order, start, points, dist, idx,
                            key, q)
         else:
             # Widen until the k-th found lies within the searched radius: every
             # point outside it is farther than the k-th.
             radius = first
             while True:
-                kept = _search(qx, qy, qz, k, radius, False, x0, y0, cell, nx, ny, order, start, points, dist,
+                kept = k_nearest(qx, qy, qz, k, radius, False, x0, y0, cell, nx, ny, order, start, points, dist,
                                idx, key, q)
                 if (kept == k and dist[q, k - 1] <= radius) or not radius < 1e300:
                     break  # (the second: a query at infinity or NaN)

@@ -28,8 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import (BOX, before, column_in_turn, column_range, compiled, length, maximum,
-                                own_column_first, rising_from)
+from .neighbours_kernel import before, compiled, k_nearest, length, maximum
 from .parallel import map_blocks, thread_blocks
 
 #: Nodes per call of the fused search (blocks on all cores).
@@ -82,14 +81,11 @@ def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radi
     in one pass per node over the points of its columns.
 
     Those two steps write and read back a (Q, k) table of distances and one
-    of indices (365 MB for the ground nodes of the 1 km synthetic city) and
-    keep each node's k nearest in order, shifting them as closer ones come.
-    Here the k nearest are kept in a heap (the last of them, in the order of
-    :func:`core.neighbours_kernel.before`, on top), then the few closest to
-    the line are picked from it: the same k points (the same distances and
-    the same order decide which come in), the same few chosen (by distance
-    to the line, then x, y, z, then the point number, which for points at
-    the same coordinates is the order of the table of nearest).
+    of indices (365 MB for the ground nodes of the 1 km synthetic city).
+    Here each node's k nearest go to a row of scratch, and the few closest
+    to the line are picked from it at once: the same k points, the same few
+    chosen (by distance to the line, then x, y, z, then the point number,
+    which for points at the same coordinates is the order of the row).
 
     Parameters
     ----------
@@ -284,84 +280,25 @@ def _closest(data, near, p, normal, start, stop, out):
 
 @compiled
 def _near_lines(at, normal, start_row, stop_row, k, radius, x0, y0, cell, nx, ny, order, start, points, out):
-    """Rows ``start_row:stop_row`` of :func:`candidates_near_lines`; the
-    search is :func:`core.neighbours_kernel._search`'s, strictly within."""
+    """Rows ``start_row:stop_row`` of :func:`candidates_near_lines`: each
+    node's k nearest by :func:`core.neighbours_kernel.k_nearest` (strictly
+    within the radius) into a row of scratch, then the few closest to the
+    line among them, in order (as :func:`_closest`)."""
     n, tries = len(order), out.shape[1]
-    # The k nearest so far: a binary heap whose every entry comes after its children.
-    heap_key = np.empty((k, 4))
-    heap_point = np.empty(k, np.int64)
+    dist, idx, key = np.empty((1, k)), np.empty((1, k), np.int64), np.empty((k, 3))
     best_key = np.empty((tries, 4))
     best_point = np.empty(tries, np.int64)
-    r2 = radius * radius
-    box = radius * BOX
     for q in range(start_row, stop_row):
         qx, qy, qz = at[q, 0], at[q, 1], at[q, 2]
-        size = 0
-        last2 = np.inf  # squared distance of the k-th nearest, once k are found
-        ix0, ix1, iy0, iy1 = column_range(qx, qy, box, x0, y0, cell, nx, ny)
-        own, width, count = own_column_first(qx, qy, x0, y0, cell, ix0, ix1, iy0, iy1)
-        for visit in range(count):
-            ix, iy = column_in_turn(visit, own, width, ix0, iy0)
-            t, end = rising_from(start, points[2], ix + nx * iy, qz - box)
-            while t < end and points[2, t] <= qz + box:
-                x, y, z = points[0, t], points[1, t], points[2, t]
-                t += 1
-                dx, dy, dz = x - qx, y - qy, z - qz
-                d2 = (dx * dx + dy * dy) + dz * dz
-                if d2 >= r2 or (size == k and d2 > last2 * (1 + 1e-15)):
-                    continue
-                size = _offer(heap_key, heap_point, size, k, np.sqrt(d2), x, y, z, order[t - 1])
-                if size == k:
-                    last2 = heap_key[0, 0] * heap_key[0, 0]
-        # The few closest to the line among them, in order (as _closest).
+        found = k_nearest(qx, qy, qz, k, radius, True, x0, y0, cell, nx, ny, order, start, points, dist, idx, key, 0)
         nx_, ny_, nz_ = normal[q, 0], normal[q, 1], normal[q, 2]
         kept = 0
-        for h in range(size):
-            x, y, z, i = heap_key[h, 1], heap_key[h, 2], heap_key[h, 3], heap_point[h]
+        for h in range(found):
+            x, y, z = key[h, 0], key[h, 1], key[h, 2]
             d = _off_line(x, y, z, qx, qy, qz, nx_, ny_, nz_)
-            kept = _insert(best_key, best_point, kept, tries, d, x, y, z, i)
+            kept = _insert(best_key, best_point, kept, tries, d, x, y, z, idx[0, h])
         for s in range(tries):
             out[q, s] = best_point[s] if s < kept else n
-
-
-@compiled
-def _offer(heap_key, heap_point, size, k, d, x, y, z, i):
-    """Offer point ``i`` (distance ``d``, coordinates x, y, z) to the heap of
-    the first ``k`` in the order of :func:`core.neighbours_kernel.before`
-    (rows (d, x, y, z) of ``heap_key``, numbers in ``heap_point``; every
-    entry comes after its children, the last of them on top), ``size`` of
-    them held. Returns the new size."""
-    if size < k:
-        c = size  # a new leaf, moved up past the entries it comes after
-        size += 1
-        while c > 0:
-            up = (c - 1) // 2
-            if not before(heap_key[up, 0], heap_key[up, 1], heap_key[up, 2], heap_key[up, 3], heap_point[up],
-                          d, x, y, z, i):
-                break
-            _copy_entry(heap_key, heap_point, up, c)
-            c = up
-    elif before(d, x, y, z, i, heap_key[0, 0], heap_key[0, 1], heap_key[0, 2], heap_key[0, 3], heap_point[0]):
-        c = 0  # replaces the top, moved down past the entries that come after it
-        while True:
-            child = 2 * c + 1
-            if child >= k:
-                break
-            if child + 1 < k and before(heap_key[child, 0], heap_key[child, 1], heap_key[child, 2],
-                                        heap_key[child, 3], heap_point[child], heap_key[child + 1, 0],
-                                        heap_key[child + 1, 1], heap_key[child + 1, 2], heap_key[child + 1, 3],
-                                        heap_point[child + 1]):
-                child += 1
-            if not before(d, x, y, z, i, heap_key[child, 0], heap_key[child, 1], heap_key[child, 2],
-                          heap_key[child, 3], heap_point[child]):
-                break
-            _copy_entry(heap_key, heap_point, child, c)
-            c = child
-    else:
-        return size
-    heap_key[c, 0], heap_key[c, 1], heap_key[c, 2], heap_key[c, 3] = d, x, y, z
-    heap_point[c] = i
-    return size
 
 
 @compiled

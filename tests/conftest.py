@@ -44,6 +44,18 @@ def compiled():
     assert jit.failures[failed:] == []
 
 
+@pytest.fixture
+def with_numpy(monkeypatch):
+    """``with_numpy(function, *args)`` is ``function(*args)`` with the compiled
+    kernels off: the numpy twins a kernel is compared with."""
+    def run(function, *args):
+        with monkeypatch.context() as patch:
+            patch.setenv("URBANVOX_JIT", "0")
+            return function(*args)
+
+    return run
+
+
 @pytest.fixture(scope="session")
 def shared_data() -> Path:
     """Path of the real test data folder; skips the test when it is not there."""

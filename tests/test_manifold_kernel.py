@@ -12,14 +12,8 @@ def kernel(compiled):
     return compiled("manifold_kernel")
 
 
-def numpy_cubes(monkeypatch, labels):
-    with monkeypatch.context() as patch:
-        patch.setenv("URBANVOX_JIT", "0")
-        return manifold._all_critical_cubes(labels)
-
-
 @pytest.mark.parametrize("seed", range(12))
-def test_critical_cubes_are_numpys(monkeypatch, kernel, seed):
+def test_critical_cubes_are_numpys(with_numpy, kernel, seed):
     """Random grids from a single cube to tens of thousands, flat along any
     axis (no cube at all), labels from noise to a few smooth regions."""
     rng = np.random.default_rng(seed)
@@ -27,13 +21,13 @@ def test_critical_cubes_are_numpys(monkeypatch, kernel, seed):
     labels = rng.choice(np.array([GROUND, BUILDING, AIR], np.uint8), shape, p=[0.2, 0.3, 0.5])
     if seed % 2:
         labels = np.repeat(labels[::4], 4, axis=0)[:shape[0]]  # runs of equal labels
-    expected = numpy_cubes(monkeypatch, labels)
+    expected = with_numpy(manifold._all_critical_cubes, labels)
     got = kernel.critical_cubes(labels, manifold._CRITICAL_BY_LABEL_SUM)
     assert got.dtype == np.int64 and np.array_equal(got, expected)
     assert min(shape) < 2 or len(expected) > 0
 
 
-def test_repair_gives_the_same_labels(monkeypatch, kernel):
+def test_repair_gives_the_same_labels(with_numpy, kernel):
     """The whole well-composed repair, with the kernel and without it."""
     rng = np.random.default_rng(3)
     labels = np.full((40, 30, 20), AIR, np.uint8)
@@ -42,8 +36,6 @@ def test_repair_gives_the_same_labels(monkeypatch, kernel):
         x, y, z = rng.integers(0, 36), rng.integers(0, 26), rng.integers(3, 16)
         labels[x:x + rng.integers(1, 5), y:y + rng.integers(1, 5), z:z + rng.integers(1, 5)] = BUILDING
     expected = labels.copy()
-    with monkeypatch.context() as patch:
-        patch.setenv("URBANVOX_JIT", "0")
-        added = manifold.make_well_composed(expected)
+    added = with_numpy(manifold.make_well_composed, expected)
     assert added > 0 and manifold.make_well_composed(labels) == added
     assert np.array_equal(labels, expected) and len(kernel.critical_cubes(labels, manifold._CRITICAL_BY_LABEL_SUM)) == 0

@@ -211,7 +211,7 @@ def test_a_failing_kernel_leaves_the_elimination_to_numpy(kernel, monkeypatch):
 
 
 @pytest.mark.parametrize("seed", range(6))
-def test_air_faces_are_numpys(monkeypatch, kernel, seed):
+def test_air_faces_are_numpys(with_numpy, kernel, seed):
     """Every building cell, and a scattered subset, of random grids with
     building cells on the borders (faces out of the grid are not air)."""
     from core.eliminate import air_faces
@@ -223,9 +223,7 @@ def test_air_faces_are_numpys(monkeypatch, kernel, seed):
     stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
     every = np.flatnonzero(flat == BUILDING)
     for cells in (every, every[rng.random(len(every)) < 0.3]):
-        with monkeypatch.context() as patch:
-            patch.setenv("URBANVOX_JIT", "0")
-            expected = air_faces(flat, cells, shape, stride)
+        expected = with_numpy(air_faces, flat, cells, shape, stride)
         got = kernel.air_faces(flat, cells, shape, AIR)
         for a, b in zip(got, expected):
             assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)

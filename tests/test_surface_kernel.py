@@ -11,26 +11,20 @@ def kernel(compiled):
     return compiled("surface_kernel")
 
 
-def numpy_faces(monkeypatch, regions):
-    with monkeypatch.context() as patch:
-        patch.setenv("URBANVOX_JIT", "0")
-        return surface.faces_between(regions)
-
-
 @pytest.mark.parametrize("seed", range(30))
-def test_faces_are_numpys_on_random_volumes(monkeypatch, kernel, seed):
+def test_faces_are_numpys_on_random_volumes(with_numpy, kernel, seed):
     """Volumes from one voxel to a few hundred, flat along any axis, with
     regions that change voxel to voxel or hardly at all."""
     rng = np.random.default_rng(seed)
     shape = tuple(int(v) for v in rng.integers(1, 9, 3))
     regions = rng.integers(-2, 1 + seed % 4, shape).astype(np.int32)
-    expected = numpy_faces(monkeypatch, regions)
+    expected = with_numpy(surface.faces_between, regions)
     got = kernel.faces_between(regions, surface.OUTSIDE_REGION, surface._CORNERS)
     for a, b in zip(got, expected):
         assert a.dtype == b.dtype and np.array_equal(a, b)
 
 
-def test_surface_models_of_a_city_are_the_same(monkeypatch, kernel):
+def test_surface_models_of_a_city_are_the_same(with_numpy, kernel):
     """Ground, air and forty blocks that touch and overhang: the model numpy
     makes, node for node and quad for quad."""
     from core.grid import VoxelGrid
@@ -44,9 +38,7 @@ def test_surface_models_of_a_city_are_the_same(monkeypatch, kernel):
         z = 5 + rng.integers(0, 3)
         regions[x:x + rng.integers(2, 9), y:y + rng.integers(2, 9), z:z + rng.integers(2, 15)] = block
     grid = VoxelGrid(np.zeros(3), np.array([100.0, 200.0, -4.0]), 0.5, shape)
-    with monkeypatch.context() as patch:
-        patch.setenv("URBANVOX_JIT", "0")
-        expected = surface.SurfaceModel.from_regions(grid, regions)
+    expected = with_numpy(surface.SurfaceModel.from_regions, grid, regions)
     got = surface.SurfaceModel.from_regions(grid, regions)
     assert len(got.quads) > 5000
     for name in ("nodes", "quads", "regions"):
@@ -59,15 +51,13 @@ def test_surface_models_of_a_city_are_the_same(monkeypatch, kernel):
 
 @pytest.mark.parametrize("dtype", [np.int64, np.int32])
 @pytest.mark.parametrize("size,count", [(1, 5), (64, 100), (65, 3), (10_000, 50_000), (1_000_003, 20_000)])
-def test_unique_nodes_are_numpys(monkeypatch, kernel, dtype, size, count):
+def test_unique_nodes_are_numpys(with_numpy, kernel, dtype, size, count):
     """Dense and sparse numberings, word edges (64, 65), repeated nodes."""
     rng = np.random.default_rng(size + count)
     flat = rng.integers(0, size, (count // 4 + 1, 4)).astype(dtype)
     flat[0, :2] = [0, size - 1]
     expected = np.unique(flat, return_inverse=True)
-    with monkeypatch.context() as patch:
-        patch.setenv("URBANVOX_JIT", "0")
-        tables = surface.unique_nodes(flat, size)
+    tables = with_numpy(surface.unique_nodes, flat, size)
     used, inverse = kernel.unique_nodes(flat, size)
     assert np.array_equal(used, expected[0]) and np.array_equal(used, tables[0])
     # numpy's tables give flat's shape, its sort (a numbering much larger than flat) a flat intp.
