@@ -66,8 +66,8 @@ def supported_above(index: ColumnIndex, centre: np.ndarray, axis: np.ndarray, h:
     return _on_blocks(_above, index, centre, axis, h, support, r_outer)
 
 
-def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray, air: int) -> tuple[np.ndarray, np.ndarray,
-                                                                                       np.ndarray]:
+def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
+              air: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`core.eliminate.air_faces`: the faces of the building ``cells``
     (flat indices into the C-ordered labels ``flat`` of ``shape``) that have
     ``air`` on their other side, as its building cell (F, 3), axis (F,) and

@@ -76,10 +76,9 @@ def unique_nodes(flat: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray]:
 
     numpy marks the nodes in a table of ``size`` booleans and ranks them
     through a table of ``size`` integers (5 bytes per node of the lattice:
-    the 87 M of the 1 km city, 0.4-0.7 s). Here a bit
-    per node and the running count of each 64 of them, in the cache, give
-    the rank of a node as the count before its word plus the bits before
-    it in the word.
+    the 87 M of the 1 km city, 0.4-0.7 s). Here a bit per node and the
+    running count of each 64 of them, in the cache, give the rank of a node
+    as the count before its word plus the bits before it in the word.
 
     Examples
     --------
