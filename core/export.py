@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import jit
 from .errors import UrbanvoxError
 from .heap import reusing_freed_memory
 from .row_text import encoded_rows
@@ -456,18 +457,21 @@ def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items
     vertex += n_items
     # Items and pairs in one bipartite graph; the items are its first
     # vertices, so its parts are numbered in the order of their first item.
-    # Built as the float CSR matrix the search works on (a conversion would
-    # copy it); links sorted by item (a face's corners) are its rows as they are.
-    ones = np.ones(len(item))
-    if np.all(item[1:] >= item[:-1]):
-        indptr = np.full(size + 1, len(item), dtype=index)
-        indptr[0] = 0
-        indptr[1:n_items + 1] = np.cumsum(np.bincount(item, minlength=n_items))
-        graph = csr_matrix((ones, vertex, indptr), shape=(size, size))
-    else:
-        graph = csr_matrix((ones, (item, vertex)), shape=(size, size))
-    del vertex
-    _, labels = connected_components(graph, directed=False)
+    # The same parts by a union-find over the links (core.export_kernel).
+    labels = jit.run("export_kernel", "link_parts", item, vertex, size, size=len(item))
+    if labels is None:
+        # Built as the float CSR matrix the search works on (a conversion would
+        # copy it); links sorted by item (a face's corners) are its rows as they are.
+        ones = np.ones(len(item))
+        if np.all(item[1:] >= item[:-1]):
+            indptr = np.full(size + 1, len(item), dtype=index)
+            indptr[0] = 0
+            indptr[1:n_items + 1] = np.cumsum(np.bincount(item, minlength=n_items))
+            graph = csr_matrix((ones, vertex, indptr), shape=(size, size))
+        else:
+            graph = csr_matrix((ones, (item, vertex)), shape=(size, size))
+        del vertex
+        _, labels = connected_components(graph, directed=False)
     plain = np.zeros(n_nodes, dtype=bool)
     plain[node] = True
     plain = np.flatnonzero(plain & ~mixed)
