@@ -196,12 +196,23 @@ def _list_runs(labels, value, start, stop, first, low, high):
 
 
 @compiled
-def _root(parent, r):
-    """The root of run ``r``, halving the path to it on the way."""
+def root(parent, r):
+    """The root of ``r`` in the union-find forest ``parent``, halving the
+    path to it on the way (also :mod:`core.export_kernel`'s)."""
     while parent[r] != r:
         parent[r] = parent[parent[r]]
         r = parent[r]
     return r
+
+
+@compiled
+def join(parent, a, b):
+    """Join the sets of ``a`` and ``b``: the smaller root becomes the root of both."""
+    ra, rb = root(parent, a), root(parent, b)
+    if ra < rb:
+        parent[rb] = ra
+    elif rb < ra:
+        parent[ra] = rb
 
 
 @compiled
@@ -222,11 +233,7 @@ def _join_runs(nx, ny, first, low, high):
             b, b_end = first[before], first[before + 1]
             while a < a_end and b < b_end:
                 if low[a] < high[b] and low[b] < high[a]:
-                    ra, rb = _root(parent, a), _root(parent, b)
-                    if ra < rb:
-                        parent[rb] = ra
-                    elif rb < ra:
-                        parent[ra] = rb
+                    join(parent, a, b)
                 if high[a] < high[b]:
                     a += 1
                 else:
@@ -234,12 +241,12 @@ def _join_runs(nx, ny, first, low, high):
     volume = np.empty(len(low), np.int32)
     n = 0
     for r in range(len(low)):
-        root = _root(parent, r)
-        if root == r:
+        first_run = root(parent, r)
+        if first_run == r:
             n += 1
             volume[r] = n
         else:
-            volume[r] = volume[root]
+            volume[r] = volume[first_run]
     return volume, n
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .blocks_kernel import join, root
 from .neighbours_kernel import compiled
 
 
@@ -41,31 +42,18 @@ def warm_up() -> int:
 
 
 @compiled
-def _root(parent, v):
-    """The root of ``v``, halving the path on the way."""
-    while parent[v] != v:
-        parent[v] = parent[parent[v]]
-        v = parent[v]
-    return v
-
-
-@compiled
 def _parts(item, vertex, size):
     """:func:`link_parts`."""
     parent = np.arange(size)
     for e in range(len(item)):
-        a, b = _root(parent, item[e]), _root(parent, vertex[e])
-        if a < b:
-            parent[b] = a
-        elif b < a:
-            parent[a] = b
+        join(parent, item[e], vertex[e])
     labels = np.empty(size, np.int32)
     n = 0
     for v in range(size):
-        root = _root(parent, v)
-        if root == v:
+        smallest = root(parent, v)
+        if smallest == v:
             labels[v] = n
             n += 1
         else:
-            labels[v] = labels[root]
+            labels[v] = labels[smallest]
     return labels
