@@ -339,14 +339,14 @@ def _nearest(at, start_row, stop_row, k, upper, first, x0, y0, cell, nx, ny, ord
         qx, qy, qz = at[q, 0], at[q, 1], at[q, 2]
         if bounded:
             kept = k_nearest(qx, qy, qz, k, upper, True, x0, y0, cell, nx, ny, order, start, points, dist, idx,
-                           key, q)
+                             key, q)
         else:
             # Widen until the k-th found lies within the searched radius: every
             # point outside it is farther than the k-th.
             radius = first
             while True:
                 kept = k_nearest(qx, qy, qz, k, radius, False, x0, y0, cell, nx, ny, order, start, points, dist,
-                               idx, key, q)
+                                 idx, key, q)
                 if (kept == k and dist[q, k - 1] <= radius) or not radius < 1e300:
                     break  # (the second: a query at infinity or NaN)
                 radius *= 2
