@@ -55,17 +55,14 @@ def faces_between(regions: np.ndarray, outside: int, corners: np.ndarray) -> tup
     offsets = np.array([[c[0] + nx1 * (c[1] + ny1 * c[2]) for c in corners[axis]] for axis in range(3)],
                        dtype=np.int64)
     # The pairs along an axis start at every padded voxel before its last layer along it.
-    slabs = [thread_blocks(nx + 2 - (axis == 0)) for axis in range(3)]
-    counts = [map_blocks(lambda rows, axis=axis: _faces(regions, outside, axis, rows.start, rows.stop, offsets,
-                                                        _NONE, _NO_PAIRS, 0), slabs[axis])
-              for axis in range(3)]
-    first = np.cumsum([0] + [n for part in counts for n in part])
+    jobs = [(axis, rows) for axis in range(3) for rows in thread_blocks(nx + 2 - (axis == 0))]
+    counts = map_blocks(lambda job: _faces(regions, outside, job[0], job[1].start, job[1].stop, offsets,
+                                           _NONE, _NO_PAIRS, 0), jobs)
+    first = np.cumsum([0] + counts)
     quads = np.empty((int(first[-1]), 4), dtype=np.int64)
     pairs = np.empty((int(first[-1]), 2), dtype=np.int32)
-    at = iter(first[:-1].tolist())
-    jobs = [(axis, rows, next(at)) for axis in range(3) for rows in slabs[axis]]
-    map_blocks(lambda job: _faces(regions, outside, job[0], job[1].start, job[1].stop, offsets, quads, pairs,
-                                  job[2]), jobs)
+    map_blocks(lambda job: _faces(regions, outside, job[0][0], job[0][1].start, job[0][1].stop, offsets, quads,
+                                  pairs, job[1]), list(zip(jobs, first[:-1].tolist())))
     return quads, pairs
 
 
@@ -147,7 +144,7 @@ def _faces(regions, outside, axis, start, stop, offsets, quads, pairs, at):
                     continue
                 if write:
                     # The face's lowest lattice node: (padded voxel - 1) + one step along the axis.
-                    base = (ib + (axis == 0)) + nx1 * ((jb + (axis == 1)) + ny1 * (kb + (axis == 2)))
+                    base = i_f + nx1 * (j_f + ny1 * k_f)
                     row = at + n
                     for c in range(4):
                         quads[row, c] = base + offsets[axis, c]
