@@ -216,6 +216,23 @@ def join(parent, a, b):
 
 
 @compiled
+def numbered_sets(parent, first):
+    """The set of every element of the union-find forest ``parent``, numbered
+    from ``first`` in the order of the sets' roots, each its smallest
+    element when joined by :func:`join` (int32), and how many sets."""
+    number = np.empty(len(parent), np.int32)
+    n = first
+    for r in range(len(parent)):
+        smallest = root(parent, r)
+        if smallest == r:
+            number[r] = n
+            n += 1
+        else:
+            number[r] = number[smallest]
+    return number, n - first
+
+
+@compiled
 def _join_runs(nx, ny, first, low, high):
     """Each run's volume number, ``1..n`` in the order of the runs (that of
     their first voxels in the grid), and ``n``. Two runs of neighbouring
@@ -238,16 +255,7 @@ def _join_runs(nx, ny, first, low, high):
                     a += 1
                 else:
                     b += 1
-    volume = np.empty(len(low), np.int32)
-    n = 0
-    for r in range(len(low)):
-        first_run = root(parent, r)
-        if first_run == r:
-            n += 1
-            volume[r] = n
-        else:
-            volume[r] = volume[first_run]
-    return volume, n
+    return numbered_sets(parent, 1)
 
 
 @compiled

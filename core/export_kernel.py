@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .blocks_kernel import join, root
+from .blocks_kernel import join, numbered_sets
 from .neighbours_kernel import compiled
 
 
@@ -47,13 +47,4 @@ def _parts(item, vertex, size):
     parent = np.arange(size)
     for e in range(len(item)):
         join(parent, item[e], vertex[e])
-    labels = np.empty(size, np.int32)
-    n = 0
-    for v in range(size):
-        smallest = root(parent, v)
-        if smallest == v:
-            labels[v] = n
-            n += 1
-        else:
-            labels[v] = labels[smallest]
-    return labels
+    return numbered_sets(parent, 0)[0]
