@@ -20,9 +20,10 @@ and the order of :func:`core.project._ranked` (distance, then x, y, z, then
 the column), so the chosen points are the same; the tests compare both.
 Over a compiled index of the data (:class:`core.neighbours_kernel.ColumnIndex`),
 :func:`candidates_near_lines` also finds the 24 nearest in that pass,
-without their table: on the same city 1.4 -> 1.0 s for the 1.5 M building
-nodes and 1.4 -> 1.3 s for the 0.95 M ground nodes, against the index's
-nearest points then this pass (wall time on 2 cores, the same points).
+without their table: on the same city the index's nearest points then
+this pass took 1.3-1.5 s for the 1.5 M building nodes and 1.4-1.5 s for
+the 0.95 M ground nodes, the one pass 0.86-0.96 s and 1.07-1.11 s (wall
+time on 2 cores, the same points).
 """
 from __future__ import annotations
 
