@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from .run import ROOT, fresh_memory_in_child, synthetic_path
+from .run import DENSITY, ROOT, fresh_memory_in_child, synthetic_path
 
 
 def run(path: Path, voxel: float, tile: float, workers: int, report: Path) -> dict:
@@ -58,9 +58,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--voxel", type=float, default=1.0)
     parser.add_argument("--tile-size", type=float, default=250.0)
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--density", type=float, default=DENSITY, help=f"pulses per m² (default {DENSITY:g})")
     parser.add_argument("--json", type=Path, help="write the results here")
     args = parser.parse_args(argv)
-    path = synthetic_path({"kind": "city", "size": args.size})
+    path = synthetic_path({"kind": "city", "size": args.size, "density": args.density})
     fresh = fresh_memory_in_child()
     print(f"city {args.size:g} m ({path}), {args.voxel:g} m voxels, {args.tile_size:g} m tiles; "
           f"fresh memory {fresh:.2f} ms/MB")

@@ -3,10 +3,11 @@
 The paper's only requirement is a segmentation of the data into ground and
 other points. Airborne LiDAR has no ground return under roofs, and a
 CityGML-derived mesh has ground only along the wall bottoms, so every column
-without a ground point gets its level interpolated linearly from the columns
-around it (nearest value outside their convex hull). Ground voxels are then
-the voxels whose centre is at or below that level: a height field, which
-keeps the ground a single volume as §3 assumes.
+without a ground point gets its level interpolated from the observed columns
+around it: linearly along chords in eight directions across the gap, the
+chords weighted by how near their ends are (:func:`_fill_missing`). Ground
+voxels are then the voxels whose centre is at or below that level: a height
+field, which keeps the ground a single volume as §3 assumes.
 """
 from __future__ import annotations
 
@@ -14,8 +15,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
-from scipy.interpolate import LinearNDInterpolator
-from scipy.spatial import QhullError
 
 from .errors import UrbanvoxError
 from .grid import VoxelGrid
@@ -89,41 +88,102 @@ def column_ground_level(grid: VoxelGrid, ground_points: np.ndarray) -> GroundLev
     return GroundLevel(z=z, top_k=top_k, observed=observed)
 
 
+#: Directions of the chords (each also taken backwards): the axes, the
+#: diagonals and the knight's moves. The axes alone guessed worse (mean
+#: error 0.116 against 0.087 m on Delft at 0.5 m, see :func:`_fill_missing`).
+CHORD_DIRECTIONS = ((1, 0), (0, 1), (1, 1), (1, -1), (2, 1), (1, 2), (2, -1), (1, -2))
+
+
 def _fill_missing(grid: VoxelGrid, z: np.ndarray, observed: np.ndarray) -> np.ndarray:
     """Interpolate the unobserved columns from the observed ones around them.
 
-    Only observed columns that touch an unobserved one take part in the
-    triangulation: interior columns cannot influence a linear interpolation
-    of the gaps, and leaving them out keeps Delaunay small on city-sized grids.
+    Along each of :data:`CHORD_DIRECTIONS`, a gap column lies on a chord
+    between the nearest observed column behind it and the nearest ahead; the
+    chord gives it the linear interpolation of their levels. The chords'
+    values are averaged, each weighted by the inverse fourth power of the
+    distance to its nearer end: the observed ground closest to a column
+    counts most. A plane is interpolated exactly. Columns with no chord (a
+    gap open to the grid's edge on every side) take the level of the
+    nearest observed column.
+
+    Why chords and not a triangulation: linear interpolation over a Delaunay
+    triangulation of the gaps' rims (qhull; this module's method until
+    December 2026) took 1.3 s on the 1 km synthetic city (85 k rim columns
+    on a lattice, degenerate for qhull) and 5.7 s on the 2 km one; the
+    chords take 0.13-0.17 s on the 1 km city. Both guess the same thing, the
+    ground under a roof, about equally well: the file's own roof gaps laid
+    over its observed ground elsewhere (six shifts; the observed levels as
+    the truth) are filled with a mean error of 0.087 m (chords) against
+    0.085 m (triangulation) on Delft at 0.5 m, 0.053 against 0.050 m on
+    Montpellier at 1 m, 0.078 against 0.068 m on Saint-Barthelemy at 0.5 m
+    and 0.109 against 0.117 m on the hilly Jura village at 0.5 m
+    (``tests/test_real_data.py`` checks Delft, Montpellier and the Jura
+    against the triangulation).
+
+    Examples
+    --------
+    A gap in a tilted plane is filled exactly:
+
+    >>> x, y = np.meshgrid(np.arange(6.0), np.arange(5.0), indexing="ij")
+    >>> z = 2 + 0.5 * x - 0.25 * y
+    >>> gap = (x > 0) & (x < 4) & (y > 0) & (y < 3)
+    >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (6, 5, 4))
+    >>> bool(np.allclose(_fill_missing(g, np.where(gap, np.nan, z), ~gap), z))
+    True
     """
-    # Isolated empty columns (sparse returns at small voxels) first take the
-    # mean of their observed neighbours: cheap, and it keeps the Delaunay
-    # triangulation below for the real gaps (under roofs).
-    ring = np.ones((3, 3))
-    known = np.where(observed, z, 0.0)
-    neighbours = ndimage.convolve(observed.astype(np.float64), ring, mode="constant")
-    total = ndimage.convolve(known, ring, mode="constant")
-    scattered = ~observed & (neighbours == 8)  # symmetric: exact on a plane
-    z = z.copy()
-    z[scattered] = total[scattered] / neighbours[scattered]
-    observed = observed | scattered
-    missing = ~observed
-    if not missing.any():
+    missing = np.flatnonzero(~observed)
+    if len(missing) == 0:
         return z
-    rim = observed & ndimage.binary_dilation(missing, structure=np.ones((3, 3), bool))
-    xs, ys = grid.column_centres()
-    ri, rj = np.nonzero(rim)
-    mi, mj = np.nonzero(missing)
+    ny = z.shape[1]
+    mi, mj = np.divmod(missing, ny)
+    level = z.ravel()
+    total = np.zeros(len(missing))
+    weights = np.zeros(len(missing))
+    for di, dj in CHORD_DIRECTIONS:
+        behind = steps_to_observed(observed, di, dj).ravel().take(missing)
+        ahead = steps_to_observed(observed[::-1, ::-1], di, dj)[::-1, ::-1].ravel().take(missing)
+        chord = (behind > 0) & (ahead > 0)
+        b, a = behind[chord], ahead[chord]
+        ci, cj = mi[chord], mj[chord]
+        z_behind = level.take((ci - b * di) * ny + (cj - b * dj))
+        z_ahead = level.take((ci + a * di) * ny + (cj + a * dj))
+        w = (np.minimum(a, b) * float(np.hypot(di, dj))) ** -4.0
+        total[chord] += w * (z_behind + (z_ahead - z_behind) * (b / (a + b)))
+        weights[chord] += w
     filled = z.copy()
-    if len(ri) >= 3:
-        try:
-            interpolate = LinearNDInterpolator(np.column_stack([xs[ri], ys[rj]]), z[ri, rj])
-            filled[mi, mj] = interpolate(np.column_stack([xs[mi], ys[mj]]))
-        except QhullError:
-            pass  # collinear rim: the nearest-value fill below covers every column
-    still = np.isnan(filled)
-    if still.any():
-        # Outside the rim's convex hull: the value of the nearest observed column.
+    spanned = weights > 0
+    filled.ravel()[missing[spanned]] = total[spanned] / weights[spanned]
+    if not spanned.all():
+        # No chord: the level of the nearest observed column.
         _, (ni, nj) = ndimage.distance_transform_edt(~observed, return_indices=True)
-        filled[still] = z[ni[still], nj[still]]
+        alone = missing[~spanned]
+        filled.ravel()[alone] = z[ni.ravel()[alone], nj.ravel()[alone]]
     return filled
+
+
+def steps_to_observed(observed: np.ndarray, di: int, dj: int) -> np.ndarray:
+    """Steps of ``(di, dj)`` back from every column to the nearest observed
+    column on its line (0 on an observed column, -1 if there is none).
+
+    One pass over the rows (each row from the row ``di`` before it), or over
+    the columns when ``di`` is 0: a loop of a few thousand vectorised steps.
+
+    Examples
+    --------
+    >>> steps_to_observed(np.array([[True, False, False], [False, False, True]]), 0, 1).tolist()
+    [[0, 1, 2], [-1, -1, 0]]
+    >>> steps_to_observed(np.array([[True, False], [False, False]]), 1, 1).tolist()
+    [[0, -1], [-1, 1]]
+    """
+    if di == 0:
+        return steps_to_observed(observed.T, dj, di).T
+    nx, ny = observed.shape
+    steps = np.full((nx, ny), -1, dtype=np.int32)
+    lo, hi = max(dj, 0), ny + min(dj, 0)  # the columns j whose j - dj is on the grid
+    for i in range(nx):
+        row = steps[i]
+        if i >= di:
+            before = steps[i - di, lo - dj:hi - dj]
+            row[lo:hi] = np.where(before >= 0, before + 1, -1)
+        row[observed[i]] = 0
+    return steps

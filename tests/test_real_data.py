@@ -53,3 +53,53 @@ def test_zurich_stl_scattered_over_kilometres(shared_data):
     assert result.stats["clusters"] >= 40       # one grid per group of buildings
     assert 46 <= len(result.blocks) <= 52        # 49 buildings in the source CityJSON
     check_model(result)
+
+
+GAP_FILL_CASES = {  # file, CRS, voxel size
+    "delft_05": ("delft_ahn3/ahn3_cropped_2.laz", "EPSG:28992", 0.5),
+    "montpellier_1": ("montpellier_ign", None, 1.0),
+    "jura_05": ("ign_lidarprod/870000_6618000.subset.postValidation.laz", None, 0.5),
+}
+
+
+@pytest.mark.parametrize("name", GAP_FILL_CASES)
+def test_ground_under_roofs_is_guessed_as_well_as_by_a_triangulation(shared_data, name):
+    """The file's own roof gaps, laid over its observed ground elsewhere (six
+    shifts): the filled levels against the observed ones, and against linear
+    interpolation over a Delaunay triangulation of the gaps' rims (this
+    module's method before the chords, as LinearNDInterpolator)."""
+    from scipy import ndimage
+    from scipy.interpolate import LinearNDInterpolator
+
+    from core.ground import _fill_missing, column_ground_level
+    from core.grid import GridWindow
+    from core.readers.las import read_point_clouds
+
+    relative, crs, h = GAP_FILL_CASES[name]
+    path = shared_data / relative
+    points = read_point_clouds(sorted(path.glob("*.laz")) if path.is_dir() else path, crs=crs)
+    window = GridWindow.around(points.ground, points.building, h)
+    grid = window.grid(h)
+    level = column_ground_level(grid, points.ground - grid.offset)
+    roofs = ~level.observed
+    nx, ny = roofs.shape
+    xs, ys = grid.column_centres()
+    chords, triangles = [], []
+    for shift in [(nx // 3, 0), (0, ny // 3), (nx // 2, ny // 2), (-nx // 4, ny // 5), (nx // 5, -ny // 4),
+                  (2 * nx // 3, 2 * ny // 3)]:
+        laid = np.roll(roofs, shift, axis=(0, 1))
+        gap = ndimage.binary_erosion(laid) & level.observed  # gaps, not single columns
+        observed = level.observed & ~gap
+        z = np.where(observed, level.z, np.nan)
+        rim = observed & ndimage.binary_dilation(~observed, structure=np.ones((3, 3), bool))
+        ri, rj = np.nonzero(rim)
+        gi, gj = np.nonzero(gap)
+        reference = LinearNDInterpolator(np.column_stack([xs[ri], ys[rj]]), z[ri, rj])(
+            np.column_stack([xs[gi], ys[gj]]))
+        inside = np.isfinite(reference)  # the triangulation's hull
+        chords.append((_fill_missing(grid, z, observed)[gi, gj] - level.z[gi, gj])[inside])
+        triangles.append((reference - level.z[gi, gj])[inside])
+    chords, triangles = np.abs(np.concatenate(chords)), np.abs(np.concatenate(triangles))
+    assert len(chords) > 5000
+    assert chords.mean() <= 1.1 * triangles.mean()
+    assert chords.mean() < 0.12  # metres
