@@ -88,6 +88,37 @@ def column_ground_level(grid: VoxelGrid, ground_points: np.ndarray) -> GroundLev
     return GroundLevel(z=z, top_k=top_k, observed=observed)
 
 
+def column_ceiling(grid: VoxelGrid, ground_points: np.ndarray) -> np.ndarray:
+    """An upper bound of the height of the ground points in every column
+    (-inf where there is none), from three sums per column.
+
+    No sample lies further above its mean than ``sigma * sqrt(n - 1)``
+    (Samuelson's inequality, ``sigma`` the population standard deviation),
+    plus a margin of a thousandth of a voxel for round-off. The measures use
+    it to skip the search of the ground for nodes well above it: a maximum
+    per column (``np.maximum.at``) costs ten times more on millions of points.
+
+    Examples
+    --------
+    >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (2, 1, 4))
+    >>> pts = np.array([[0.5, 0.5, 1.0], [0.5, 0.5, 1.2], [0.5, 0.5, 1.1]])
+    >>> ceiling = column_ceiling(g, pts)
+    >>> bool(1.2 <= ceiling[0, 0] < 1.3), ceiling[1, 0]
+    (True, -inf)
+    """
+    nx, ny, _ = grid.shape
+    column = grid.column_of(ground_points)
+    z = ground_points[:, 2]
+    n = np.bincount(column, minlength=nx * ny).astype(np.float64)
+    some = n > 0
+    mean = np.bincount(column, weights=z, minlength=nx * ny)[some] / n[some]
+    square = np.bincount(column, weights=z * z, minlength=nx * ny)[some] / n[some]
+    spread = np.sqrt(np.maximum(square - mean * mean, 0.0) * (n[some] - 1))
+    ceiling = np.full(nx * ny, -np.inf)
+    ceiling[some] = mean + spread + 1e-3 * grid.voxel_size
+    return ceiling.reshape(nx, ny)
+
+
 #: Directions of the chords (each also taken backwards): the axes, the
 #: diagonals and the knight's moves. The axes alone guessed worse (mean
 #: error 0.116 against 0.087 m on Delft at 0.5 m, see :func:`_fill_missing`).

@@ -15,7 +15,7 @@ in each thread of a row-block pool).
 """
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Sequence, Union
+from typing import TYPE_CHECKING, Callable, Sequence, Union
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -152,7 +152,9 @@ def by_value_then_coordinates(value: np.ndarray, index: np.ndarray, data: np.nda
     return np.lexsort((point[..., 2], point[..., 1], point[..., 0], value), axis=1)[:, :k]
 
 
-def nearest_distance(points: np.ndarray, trees: Sequence, bound: float) -> np.ndarray:
+def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
+                     maybe_within: Sequence[Callable[[np.ndarray, float], np.ndarray] | None] | None = None,
+                     ) -> np.ndarray:
     """Distance from every point to the nearest point of any tree's data (NaN without data).
 
     A tree may also be a compiled index (:func:`point_index`): the same distances.
@@ -164,22 +166,42 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float) -> np.nd
     trees over the parts are built once for other steps, and a tree over
     their union (10 M points on a city) is not.
 
+    ``maybe_within`` may give, for a tree after the first, a function of
+    points and a distance: the mask of the points that may have one of its
+    data points within that distance. The others are known to have none and
+    skip that search (roofs and walls high above the ground,
+    :func:`core.ground.column_ceiling`).
+
     Examples
     --------
     >>> near, far = search_tree(np.array([[0.0, 0, 1]])), search_tree(np.array([[0.0, 0, -5]]))
     >>> nearest_distance(np.array([[0.0, 0, 0], [0, 0, -4]]), [near, far], 0.5).tolist()
     [1.0, 1.0]
+    >>> above_ground = lambda points, reach: points[:, 2] - reach <= -5
+    >>> nearest_distance(np.array([[0.0, 0, 0], [0, 0, -4]]), [near, far], 0.5, [None, above_ground]).tolist()
+    [1.0, 1.0]
     """
     distance = np.full(len(points), np.inf)
     searched = False
-    for tree in trees:
+    for n, tree in enumerate(trees):
         if tree.n == 0 or len(points) == 0:
             continue
         if not searched:
             distance = nearest_within(tree, points, np.inf)
             searched = True
             continue
-        found = nearest_within(tree, points, bound)
+        maybe = maybe_within[n] if maybe_within is not None else None
+
+        def within(rows: np.ndarray | None, upper: float, tree=tree, maybe=maybe) -> np.ndarray:
+            where = points if rows is None else points.take(rows, axis=0)
+            if maybe is None:
+                return nearest_within(tree, where, upper)
+            found = np.full(len(where), np.inf)
+            some = np.flatnonzero(maybe(where, upper))
+            found[some] = nearest_within(tree, where.take(some, axis=0), upper)
+            return found
+
+        found = within(None, bound)
         # Nothing within bound, and nothing that near so far: searched again
         # within bounds four times wider each time, each point as far as its
         # distance so far (a farther point would not be the nearest). Points
@@ -191,7 +213,7 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float) -> np.nd
             limit *= 4
             now = distance[pending] <= limit
             if now.any():
-                found[pending[now]] = nearest_within(tree, points.take(pending[now], axis=0), limit)
+                found[pending[now]] = within(pending[now], limit)
             pending = pending[~now]
         np.minimum(distance, found, out=distance)
     distance[np.isinf(distance)] = np.nan

@@ -96,6 +96,21 @@ def test_ground_level_is_interpolated_under_roofs():
     assert np.array_equal(level.top_k, np.floor(z - 0.5).astype(int))
 
 
+def test_ground_ceiling_bounds_every_column_from_above():
+    from core.ground import column_ceiling
+
+    rng = np.random.default_rng(2)
+    g = grid_of((30, 20, 10), h=1.0)
+    pts = np.column_stack([rng.random((5000, 2)) * [30, 20], 3 + rng.gamma(0.5, 0.3, 5000)])
+    ceiling = column_ceiling(g, pts)
+    column = g.column_of(pts)
+    highest = np.full(30 * 20, -np.inf)
+    np.maximum.at(highest, column, pts[:, 2])
+    assert (ceiling.ravel() >= highest).all()
+    assert np.isneginf(ceiling.ravel()[np.bincount(column, minlength=600) == 0]).all()
+    assert np.median(ceiling.ravel() - highest) < 1.0  # a bound that prunes: within a metre
+
+
 def test_memory_guard_refuses_before_allocating():
     with pytest.raises(UrbanvoxError, match="voxel size of at least"):
         check_memory((20000, 20000, 300), 0.25, available=8 * 2**30)
