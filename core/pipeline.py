@@ -364,8 +364,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
     # Distance of block nodes to the data (the nearest building or ground
     # point). Most block nodes are roofs and walls, high above any ground
-    # point of the columns around them: they skip the ground's searches
-    # (0.30 -> 0.07 s on the 1 km city).
+    # point of the columns around them: they skip the ground's searches (on
+    # the 1 km city, its first search then takes 171 k of 1.79 M nodes).
     distance = np.full(len(nodes), np.nan)
     distance[roles.on_block] = nearest_distance(nodes[roles.on_block], [building_search, ground_tree.result()], h,
                                                 [None, _NearGround(grid, ground_ceiling.result())])
