@@ -36,7 +36,7 @@ from .neighbours import PointSearch, by_value_then_coordinates, nearest, point_i
 from .parallel import map_blocks, on_pool, row_blocks
 from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
-from .surface import GROUND_REGION, SurfaceModel, rank_in
+from .surface import GROUND_REGION, SurfaceModel
 from .topology import changed_rows, touching
 from .vectors import cross, dot, length
 
@@ -311,31 +311,36 @@ class _PlaneCache:
     """The MLS planes (:func:`mls_planes`) at data points, each fitted once:
     neighbouring nodes often pick the same point, and a point one node tries
     first, another may try next (on the 1 km synthetic city, 6 % of the
-    second and third tries)."""
+    second and third tries).
+
+    The planes are found through a table of one slot per data point, not by
+    sorting the points asked for (``np.unique``, then a search among those
+    fitted before): 0.28 s of the two projections' 2.2 s on the 1 km city
+    went to that bookkeeping."""
 
     def __init__(self, data: np.ndarray, tree: PointSearch, sigma: float):
         self.data, self.tree, self.sigma = data, tree, sigma
-        #: Per call that fitted any: the data points (sorted), centres, normals, flatness.
-        self.fitted: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+        #: Row of each data point's plane in the tables below, -1 if not fitted yet.
+        self.slot = np.full(len(data), -1, dtype=np.int32 if len(data) < 2**31 else np.int64)
+        self.centre, self.normal = np.empty((0, 3)), np.empty((0, 3))
+        self.flat = np.empty(0, dtype=bool)
 
     def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centre, normal and flatness (as :func:`mls_planes`) of the planes at ``points`` (data indices)."""
-        wanted, which = np.unique(points, return_inverse=True)
-        centre, normal, flat = np.empty((len(wanted), 3)), np.empty((len(wanted), 3)), np.empty(len(wanted), bool)
-        missing = np.ones(len(wanted), dtype=bool)
-        for known, *plane in self.fitted:
-            at = rank_in(wanted, known)
-            found = missing & (at >= 0)
-            for out, values in zip((centre, normal, flat), plane):
-                out[found] = values[at[found]]
-            missing &= ~found
-        if missing.any():
-            new = wanted[missing]
-            plane = mls_planes(self.data, self.tree, self.data.take(new, axis=0), self.sigma, _PLANE_POINTS)
-            for out, values in zip((centre, normal, flat), plane):
-                out[missing] = values
-            self.fitted.append((new, *plane))
-        return centre.take(which, axis=0), normal.take(which, axis=0), flat[which]
+        missing = points.compress(self.slot.take(points) < 0)
+        if len(missing):
+            # The points not fitted yet, once each and ascending (as np.unique).
+            wanted = np.zeros(len(self.data), dtype=bool)
+            wanted[missing] = True
+            new = np.flatnonzero(wanted)
+            centre, normal, flat = mls_planes(self.data, self.tree, self.data.take(new, axis=0), self.sigma,
+                                              _PLANE_POINTS)
+            self.slot[new] = np.arange(len(self.flat), len(self.flat) + len(new))
+            self.centre = np.concatenate([self.centre, centre])
+            self.normal = np.concatenate([self.normal, normal])
+            self.flat = np.concatenate([self.flat, flat])
+        row = self.slot.take(points)
+        return self.centre.take(row, axis=0), self.normal.take(row, axis=0), self.flat.take(row)
 
 
 def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.ndarray, radius: float,

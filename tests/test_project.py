@@ -79,5 +79,7 @@ def test_planes_fitted_once_per_data_point_are_those_fitted_each_time():
         got = planes(points)
         for one, expected in zip(got, mls_planes(data, tree, data.take(points, axis=0), 0.5, _PLANE_POINTS)):
             assert np.array_equal(one, expected)
-    fitted = np.concatenate([known for known, *_ in planes.fitted])
-    assert len(fitted) == len(np.unique(np.concatenate(tries))) == len(np.unique(fitted))
+    # Each point asked for has one plane, and no other point has any.
+    fitted = np.flatnonzero(planes.slot >= 0)
+    assert np.array_equal(fitted, np.unique(np.concatenate(tries)))
+    assert len(planes.flat) == len(fitted) == len(np.unique(planes.slot[fitted]))
