@@ -27,7 +27,6 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy import ndimage
 
 from . import jit
 from .errors import Cancelled
@@ -202,13 +201,36 @@ def _near_cells(centre: np.ndarray, seeds: np.ndarray, radius: float) -> np.ndar
         # of all the keys (np.isin).
         wanted = np.zeros(int(np.prod(dims)), dtype=bool)
         wanted[key[seeds]] = True
-        wanted = ndimage.binary_dilation(wanted.reshape(dims[::-1]), np.ones((3, 3, 3), bool)).ravel()
+        wanted = _dilated(wanted.reshape(dims[::-1])).ravel()
         return np.flatnonzero(wanted[key])
     steps = np.array([dx + dims[0] * (dy + dims[1] * dz)
                       for dz in (-1, 0, 1) for dy in (-1, 0, 1) for dx in (-1, 0, 1)])
     seed_cells = np.unique(key[seeds])
     wanted = np.unique((seed_cells[:, None] + steps[None, :]).ravel())
     return np.flatnonzero(np.isin(key, wanted))
+
+
+def _dilated(mask: np.ndarray) -> np.ndarray:
+    """``mask`` dilated by its 3 x 3 x 3 box (outside it, False): as
+    ``ndimage.binary_dilation`` with that structure, one axis at a time,
+    by shifted ORs (0.19 -> 0.013 s on the 14 M cells of the 1 km city).
+
+    Examples
+    --------
+    >>> mask = np.zeros((3, 4, 4), bool); mask[0, 0, 0] = True
+    >>> _dilated(mask)[:2, :3, :3].sum(), int(_dilated(mask).sum())
+    (8, 8)
+    """
+    mask = mask.copy()
+    for axis in range(mask.ndim):
+        lower = [slice(None)] * mask.ndim
+        upper = [slice(None)] * mask.ndim
+        lower[axis], upper[axis] = slice(None, -1), slice(1, None)
+        grown = mask.copy()
+        grown[tuple(upper)] |= mask[tuple(lower)]
+        grown[tuple(lower)] |= mask[tuple(upper)]
+        mask = grown
+    return mask
 
 
 def _close_pairs(centre: np.ndarray, reach: np.ndarray, faces: np.ndarray, seeds: np.ndarray,

@@ -285,3 +285,14 @@ def test_float32_boxes_hold_their_triangles():
     assert np.all(lower <= low) and np.all(upper >= high)
     step = np.spacing(np.float32(2048.0))
     assert np.all(low - lower <= step) and np.all(upper - high <= step)
+
+
+def test_box_dilation_by_shifts_is_scipys():
+    from scipy import ndimage
+
+    from core.intersect import _dilated
+
+    rng = np.random.default_rng(5)
+    for shape in [(1, 1, 1), (2, 3, 1), (7, 9, 11), (30, 20, 5)]:
+        mask = rng.random(shape) < 0.05
+        assert np.array_equal(_dilated(mask), ndimage.binary_dilation(mask, np.ones((3, 3, 3), bool)))
