@@ -97,7 +97,7 @@ def test_ground_under_roofs_is_guessed_as_well_as_by_a_triangulation(shared_data
         reference = LinearNDInterpolator(np.column_stack([xs[ri], ys[rj]]), z[ri, rj])(
             np.column_stack([xs[gi], ys[gj]]))
         inside = np.isfinite(reference)  # the triangulation's hull
-        chords.append((_fill_missing(grid, z, observed)[gi, gj] - level.z[gi, gj])[inside])
+        chords.append((_fill_missing(z, observed)[gi, gj] - level.z[gi, gj])[inside])
         triangles.append((reference - level.z[gi, gj])[inside])
     chords, triangles = np.abs(np.concatenate(chords)), np.abs(np.concatenate(triangles))
     assert len(chords) > 5000
