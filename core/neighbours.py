@@ -170,15 +170,15 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
     points and a distance: the mask of the points that may have one of its
     data points within that distance. The others are known to have none and
     skip that search (roofs and walls high above the ground,
-    :func:`core.ground.column_ceiling`).
+    :class:`core.ground.NearGround`).
 
     Examples
     --------
     >>> near, far = search_tree(np.array([[0.0, 0, 1]])), search_tree(np.array([[0.0, 0, -5]]))
     >>> nearest_distance(np.array([[0.0, 0, 0], [0, 0, -4]]), [near, far], 0.5).tolist()
     [1.0, 1.0]
-    >>> above_ground = lambda points, reach: points[:, 2] - reach <= -5
-    >>> nearest_distance(np.array([[0.0, 0, 0], [0, 0, -4]]), [near, far], 0.5, [None, above_ground]).tolist()
+    >>> may_reach_far = lambda points, reach: points[:, 2] - reach <= -5
+    >>> nearest_distance(np.array([[0.0, 0, 0], [0, 0, -4]]), [near, far], 0.5, [None, may_reach_far]).tolist()
     [1.0, 1.0]
     """
     distance = np.full(len(points), np.inf)

@@ -31,7 +31,6 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy import ndimage
 
 from . import jit
 from .blocks import block_columns, blocks_above_thresholds
@@ -42,7 +41,7 @@ from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
 from .grid import GridWindow, check_face_memory, check_memory
-from .ground import GroundLevel, column_ceiling, column_ground_level
+from .ground import GroundLevel, NearGround, column_ground_level
 from .heap import reusing_freed_memory
 from .manifold import make_well_composed, repair_height_field
 from .measure import measure_blocks
@@ -279,7 +278,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     # searches, which the KD-tree does best.
     building_search = in_background(point_index, building, COLUMN_VOXELS * h)
     ground_tree = in_background(search_tree, ground)
-    ground_ceiling = in_background(column_ceiling, grid, ground)
+    near_ground = in_background(NearGround, grid, ground)
     lap("grid")
 
     report(0.2, "Ground level of every column")
@@ -368,8 +367,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     # the 1 km city, its first search then takes 171 k of 1.79 M nodes).
     distance = np.full(len(nodes), np.nan)
     distance[roles.on_block] = nearest_distance(nodes[roles.on_block], [building_search, ground_tree.result()], h,
-                                                [None, _NearGround(grid, ground_ceiling.result())])
-    del building_search, ground_tree, ground_ceiling
+                                                [None, near_ground.result()])
+    del building_search, ground_tree, near_ground
     measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance)
     lap("measure")
     report(1.0, f"{len(table)} blocks")
@@ -405,22 +404,6 @@ def _reconstruct_clusters(ground, building, ground_cluster, building_cluster, cr
     result = merge_clusters(parts)
     result.warnings[:0] = warnings
     return result
-
-
-class _NearGround:
-    """Which points may have a ground point within a distance: those not
-    farther than it above the ceiling of the ground
-    (:func:`core.ground.column_ceiling`) in the columns within it."""
-
-    def __init__(self, grid, ceiling: np.ndarray):
-        self.grid, self.ceiling = grid, ceiling
-        self.around: dict[int, np.ndarray] = {}  # the ceiling's maximum over (2 r + 1)^2 columns
-
-    def __call__(self, points: np.ndarray, reach: float) -> np.ndarray:
-        r = int(np.ceil(reach / self.grid.voxel_size))
-        if r not in self.around:
-            self.around[r] = ndimage.maximum_filter(self.ceiling, size=2 * r + 1, mode="nearest").ravel()
-        return points[:, 2] - reach <= self.around[r].take(self.grid.column_of(points))
 
 
 def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):

@@ -53,11 +53,10 @@ def test_nearest_distance_over_several_trees_matches_brute_force_over_their_unio
 def test_nearest_distance_skips_only_points_with_nothing_that_near():
     # Building points above ground points on a 1 m grid of columns: the
     # ground's searches skip the points higher above the ground's ceiling
-    # than the distance searched (core.pipeline._NearGround), and the
+    # than the distance searched (core.ground.NearGround), and the
     # distances stay those of a search over everything.
     from core.grid import VoxelGrid
-    from core.ground import column_ceiling
-    from core.pipeline import _NearGround
+    from core.ground import NearGround
 
     rng = np.random.default_rng(3)
     grid = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (20, 20, 30))
@@ -65,7 +64,7 @@ def test_nearest_distance_skips_only_points_with_nothing_that_near():
     building = np.column_stack([rng.random((300, 2)) * 20, 4 + 20 * rng.random(300)])
     points = np.column_stack([rng.random((2000, 2)) * 24 - 2, 30 * rng.random(2000)])
     want = np.linalg.norm(points[:, None] - np.concatenate([building, ground])[None], axis=2).min(axis=1)
-    near_ground = _NearGround(grid, column_ceiling(grid, ground))
+    near_ground = NearGround(grid, ground)
     assert (near_ground(points, 1.0).mean()) < 0.2  # most points skip the first search
     trees = [search_tree(building), search_tree(ground)]
     np.testing.assert_array_equal(nearest_distance(points, trees, 1.0, [None, near_ground]), want)
