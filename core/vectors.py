@@ -79,6 +79,21 @@ def minus(u: Vector, v: Vector) -> Vector:
     return [u[c] - v[c] for c in range(3)]
 
 
+def all_finite(table: np.ndarray) -> bool:
+    """Whether every number of ``table`` is finite, from the sum of them all
+    (one pass, no mask): a NaN or an infinity makes the sum non-finite. A
+    sum that overflows (numbers near 1e308) is checked number by number.
+
+    Examples
+    --------
+    >>> all_finite(np.array([[0.0, 1, 2]])), all_finite(np.array([[0.0, np.inf, -np.inf]]))
+    (True, False)
+    >>> all_finite(np.array([1e308, 1e308]))
+    True
+    """
+    return bool(np.isfinite(table.sum())) or bool(np.isfinite(table).all())
+
+
 def finite_rows(table: np.ndarray) -> np.ndarray:
     """Whether every coordinate of each row of an (N, 3) table is finite, as
     ``np.isfinite(table).all(axis=1)``, one column at a time (numpy's

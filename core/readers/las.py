@@ -37,7 +37,7 @@ import pyproj
 from ..crs import describe_crs, horizontal_crs, resolve_crs
 from ..errors import Cancelled, UrbanvoxError
 from ..heap import reusing_freed_memory
-from ..vectors import finite_rows
+from ..vectors import all_finite, finite_rows
 
 __all__ = ["LabelledPoints", "parse_classes", "read_point_clouds", "CLASS_NAMES", "CHUNK_POINTS"]
 
@@ -275,8 +275,8 @@ def _read_file(
                 xyz[:, 0] = np.asarray(chunk.X).compress(mask) * scales[0] + offsets[0]
                 xyz[:, 1] = np.asarray(chunk.Y).compress(mask) * scales[1] + offsets[1]
                 xyz[:, 2] = np.asarray(chunk.Z).compress(mask) * scales[2] + offsets[2]
-                finite = finite_rows(xyz)
-                if not finite.all():
+                if not all_finite(xyz):
+                    finite = finite_rows(xyz)
                     n_bad += int((~finite).sum())
                     xyz = xyz.compress(finite, axis=0)
                 parts.append(xyz)
