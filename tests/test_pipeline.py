@@ -212,3 +212,17 @@ def test_overwrite_points_moves_the_input_in_place_and_changes_no_result(distric
     assert moved.block_rows() == kept.block_rows()
     assert np.array_equal(ground, points.ground - moved.grid.offset)
     assert np.array_equal(building, points.building - moved.grid.offset)
+
+
+def test_non_finite_points_are_dropped_with_a_warning():
+    from core.pipeline import _finite
+
+    points = np.arange(30.0).reshape(10, 3)
+    warnings: list[str] = []
+    assert np.array_equal(_finite(points, "ground", warnings), points) and warnings == []
+    points[2, 1], points[7, 0], points[8, 2] = np.nan, np.inf, -np.inf
+    kept = _finite(points, "ground", warnings)
+    assert np.array_equal(kept, points[[0, 1, 3, 4, 5, 6, 9]])
+    assert warnings == ["Ignored 3 ground points with non-finite coordinates."]
+    huge = np.full((4, 3), 1e308)  # a sum that overflows: every number is still finite
+    assert len(_finite(huge, "ground", warnings)) == 4 and len(warnings) == 1
