@@ -26,6 +26,7 @@ from typing import Callable
 import numpy as np
 from scipy import ndimage
 
+from . import jit
 from .errors import Cancelled
 from .grid import VoxelGrid
 
@@ -133,21 +134,14 @@ def enclose_air(labels: np.ndarray) -> int:
     from scipy.sparse.csgraph import connected_components
 
     nx, ny, nz = labels.shape
-    air = labels == AIR
-    # Air below the highest solid cell of its column.
-    solid = ~air
-    top = nz - np.argmax(solid[:, :, ::-1], axis=2)
-    top[~solid.any(axis=2)] = 0
-    del solid
-    covered = air & (np.arange(nz) < top[:, :, None])
-    cells = np.flatnonzero(covered)
+    cells, top = covered_air_cells(labels)
     if len(cells) == 0:
         return 0
     if len(cells) > labels.size // _MOSTLY_COVERED:
         # Hollow models (STL buildings are air inside their roofs): a
         # labelling of the grid costs less than a graph of that many cells.
-        del covered, cells
-        components, _ = ndimage.label(air, structure=FACE_ADJACENCY)
+        del cells
+        components, _ = ndimage.label(labels == AIR, structure=FACE_ADJACENCY)
         top_ids = np.unique(components[:, :, -1])
         reached = np.zeros(int(components.max()) + 1, dtype=bool)
         reached[top_ids[top_ids > 0]] = True
@@ -155,7 +149,7 @@ def enclose_air(labels: np.ndarray) -> int:
         del components
         labels[enclosed_mask] = BUILDING
         return int(np.count_nonzero(enclosed_mask))
-    flat_air, flat_covered = air.reshape(-1), covered.reshape(-1)
+    flat_labels, flat_top = labels.reshape(-1), top.reshape(-1)
     ijk = np.unravel_index(cells, labels.shape)
     stride = (ny * nz, nz, 1)
     pairs, reached_cells = [], []
@@ -164,11 +158,12 @@ def enclose_air(labels: np.ndarray) -> int:
             inside = (ijk[axis] + step >= 0) & (ijk[axis] + step < labels.shape[axis])
             cell = np.flatnonzero(inside)
             neighbour = cells[cell] + step * stride[axis]
-            open_air = flat_air[neighbour] & ~flat_covered[neighbour]
-            reached_cells.append(cell[open_air])
+            # Covered: air below its column's highest solid cell.
+            air = flat_labels[neighbour] == AIR
+            covered = air & (neighbour % nz < flat_top[neighbour // nz])
+            reached_cells.append(cell[air & ~covered])
             if step > 0:  # each adjacency once
-                both = flat_covered[neighbour]
-                pairs.append(np.column_stack([cell[both], np.searchsorted(cells, neighbour[both])]))
+                pairs.append(np.column_stack([cell[covered], np.searchsorted(cells, neighbour[covered])]))
     edges = np.concatenate(pairs)
     graph = coo_matrix((np.ones(len(edges), dtype=np.int8), (edges[:, 0], edges[:, 1])),
                        shape=(len(cells), len(cells)))
@@ -178,6 +173,34 @@ def enclose_air(labels: np.ndarray) -> int:
     enclosed = cells[~reached[group]]
     labels[np.unravel_index(enclosed, labels.shape)] = BUILDING
     return int(len(enclosed))
+
+
+def covered_air_cells(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The air cells with a solid cell above them in their column (ascending
+    flat indices), and per column the index of its highest solid cell plus
+    one (0 in a column of air only).
+
+    With numba one pass per column (:mod:`core.classify_kernel`), the same
+    cells; here grid-sized passes.
+
+    Examples
+    --------
+    >>> lab = np.full((1, 2, 4), AIR, np.uint8); lab[0, 0, 2] = BUILDING
+    >>> cells, top = covered_air_cells(lab)
+    >>> cells.tolist(), top.tolist()
+    ([0, 1], [[3, 0]])
+    """
+    found = jit.run("classify_kernel", "covered_air", labels, AIR, size=labels.size)
+    if found is not None:
+        return found
+    nz = labels.shape[2]
+    air = labels == AIR
+    solid = ~air
+    top = nz - np.argmax(solid[:, :, ::-1], axis=2)
+    top[~solid.any(axis=2)] = 0
+    del solid
+    covered = air & (np.arange(nz) < top[:, :, None])
+    return np.flatnonzero(covered), top.astype(np.int64)
 
 
 def roof_hole_columns(building_columns: np.ndarray, ground_columns: np.ndarray,
