@@ -118,8 +118,9 @@ def block_attributes(blocks: np.ndarray, n: int, grid: VoxelGrid,
     )
 
 
-def block_columns(blocks: np.ndarray) -> np.ndarray:
-    """Distinct ``(block id, i, j)`` of every column a block covers, sorted by block.
+def block_columns(blocks: np.ndarray, n: int | None = None) -> np.ndarray:
+    """Distinct ``(block id, i, j)`` of every column a block covers, sorted by
+    block, then by column. ``n``: the highest block id (found when not given).
 
     Examples
     --------
@@ -127,6 +128,11 @@ def block_columns(blocks: np.ndarray) -> np.ndarray:
     >>> block_columns(b).tolist()
     [[1, 0, 0], [2, 1, 0]]
     """
+    n = int(blocks.max(initial=0)) if n is None else int(n)
+    # Two passes over the grid instead of a sort of the columns' keys (core.blocks_kernel).
+    found = jit.run("blocks_kernel", "block_columns", blocks, n, size=blocks.size)
+    if found is not None:
+        return found
     nx, ny, _ = blocks.shape
     key = _voxels_and_columns(blocks)[1]
     return np.column_stack([key // (nx * ny), (key % (nx * ny)) // ny, key % ny])

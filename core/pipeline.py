@@ -322,7 +322,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         warnings.append("No building block in the result.")
 
     report(0.7, "Conforming surfaces")
-    columns = block_columns(blocks)
+    columns = block_columns(blocks, int(table.block_id.max()) if len(table) else 0)
     regions = region_volume(labels, blocks)
     del labels, blocks  # before the surface's own grid-sized tables are made
     surface = SurfaceModel.from_regions(grid, regions)

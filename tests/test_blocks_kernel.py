@@ -91,3 +91,17 @@ def test_blocks_above_thresholds_drop_and_renumber_as_numpy(monkeypatch, kernel,
     # What is left is what a fresh labelling finds.
     fresh, m = blocks_module.label_blocks(labels)
     assert m == len(got[1]) and np.array_equal(fresh, got[0])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_block_columns_are_numpys(with_numpy, kernel, seed):
+    """The columns each block covers, sorted by block then column: blocks that
+    overhang each other share columns, and a column may hold a block twice."""
+    labels, _ = random_city(seed)
+    blocks, n = ndimage.label(labels == BUILDING, structure=FACE_ADJACENCY)
+    blocks = blocks.astype(np.int32)
+    expected = with_numpy(blocks_module.block_columns, blocks)
+    got = kernel.block_columns(blocks, n)
+    assert got.dtype == np.int64 and np.array_equal(got, expected)
+    assert len(expected) > n  # blocks cover several columns
+    assert kernel.block_columns(np.zeros((3, 2, 4), np.int32), 0).shape == (0, 3)
