@@ -110,6 +110,19 @@ def block_columns(blocks: np.ndarray, n: int) -> np.ndarray:
     return out
 
 
+def extremes_into(out: np.ndarray, owner: np.ndarray, values: np.ndarray, largest: bool) -> np.ndarray:
+    """``np.maximum.at(out, owner, values)`` (``np.minimum.at`` unless
+    ``largest``) in one pass: the same numbers, NaN included. Returns ``out``.
+
+    Examples
+    --------
+    >>> extremes_into(np.full(2, np.inf), np.array([1, 1, 0]), np.array([3.0, np.nan, 2.0]), False).tolist()
+    [2.0, nan]
+    """
+    _extremes(out, np.ascontiguousarray(owner), np.ascontiguousarray(values, dtype=np.float64), largest)
+    return out
+
+
 def drop_and_renumber(labels: np.ndarray, blocks: np.ndarray, new_id: np.ndarray, air: int) -> np.ndarray:
     """In place: the voxels of the blocks whose ``new_id`` is 0 become
     ``air`` in ``labels``, and every block voxel takes its block's
@@ -140,7 +153,20 @@ def warm_up() -> int:
     blocks, n = label_runs(np.array([[[2, 0, 2]], [[2, 2, 2]]], np.uint8), 2)
     assert n == 1 and blocks.ravel().tolist() == [1, 0, 1, 1, 1, 1], blocks
     assert block_columns(blocks, n).tolist() == [[1, 0, 0], [1, 1, 0]]
+    for owner in (np.array([1, 0], np.int64), np.array([1, 0], np.int32)):
+        assert extremes_into(np.zeros(2), owner, np.array([2.0, 1.0]), True).tolist() == [1.0, 2.0]
     return 1
+
+
+@compiled
+def _extremes(out, owner, values, largest):
+    """:func:`extremes_into`: numpy's maximum and minimum return the NaN
+    where either is one."""
+    for t in range(len(values)):
+        b, v = owner[t], values[t]
+        m = out[b]
+        if v != v or (m == m and (v > m if largest else v < m)):
+            out[b] = v
 
 
 @compiled

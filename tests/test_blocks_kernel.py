@@ -105,3 +105,22 @@ def test_block_columns_are_numpys(with_numpy, kernel, seed):
     assert got.dtype == np.int64 and np.array_equal(got, expected)
     assert len(expected) > n  # blocks cover several columns
     assert kernel.block_columns(np.zeros((3, 2, 4), np.int32), 0).shape == (0, 3)
+
+
+@pytest.mark.parametrize("largest", [False, True])
+def test_extremes_per_block_are_numpys_ufunc_at(kernel, largest):
+    """Per-block minimum and maximum as np.minimum.at and np.maximum.at give
+    them, blocks with no value and NaN values included."""
+    rng = np.random.default_rng(7)
+    for dtype in (np.int32, np.int64):
+        owner = rng.integers(0, 50, 20_000).astype(dtype)
+        values = rng.random(20_000)
+        values[rng.integers(0, 20_000, 5)] = np.nan
+        values[owner == 3] = 0.25  # ties
+        owner[owner == 7] = 8  # a block with no value
+        initial = -np.inf if largest else np.inf
+        expected = np.full(51, initial)
+        (np.maximum if largest else np.minimum).at(expected, owner, values)
+        got = kernel.extremes_into(np.full(51, initial), owner, values, largest)
+        np.testing.assert_array_equal(got, expected)
+        assert np.isnan(expected).sum() >= 3 and expected[7] == initial
