@@ -74,13 +74,27 @@ def classify_voxels(grid: VoxelGrid, ground_top_k: np.ndarray, building_cells: n
     >>> classify_voxels(g, np.array([[1]]), np.array([[0, 0, 3]])).ravel()
     array([1, 1, 2, 2, 3, 3], dtype=uint8)
     """
-    nx, ny, nz = grid.shape
+    cells = building_cells if roof_seeds is None else np.concatenate([building_cells, roof_seeds])
+    # Each column written once, the same labels (core.classify_kernel).
+    labels = jit.run("classify_kernel", "label_columns", grid.shape, ground_top_k, cells, fill_to_top,
+                     GROUND, BUILDING, AIR, size=grid.n_voxels)
+    if labels is None:
+        labels = _label_columns(grid.shape, ground_top_k, cells, fill_to_top)
+    if is_cancelled is not None and is_cancelled():
+        raise Cancelled()
+    enclose_air(labels)
+    return labels
+
+
+def _label_columns(shape: tuple[int, int, int], ground_top_k: np.ndarray, cells: np.ndarray,
+                   fill_to_top: bool) -> np.ndarray:
+    """:func:`classify_voxels` before the air front, with grid-sized masks."""
+    nx, ny, nz = shape
     k = np.arange(nz, dtype=np.int32)
-    labels = np.zeros(grid.shape, dtype=np.uint8)
+    labels = np.zeros(shape, dtype=np.uint8)
     is_ground = k[None, None, :] <= ground_top_k[:, :, None]
     labels[is_ground] = GROUND
 
-    cells = building_cells if roof_seeds is None else np.concatenate([building_cells, roof_seeds])
     if len(cells):
         above = cells[:, 2] > ground_top_k[cells[:, 0], cells[:, 1]]  # ground wins
         cells = cells[above]
@@ -97,11 +111,7 @@ def classify_voxels(grid: VoxelGrid, ground_top_k: np.ndarray, building_cells: n
         gap = (k[None, None, :] < limit[:, :, None]) & ~is_ground & has_building[:, :, None]
         labels[gap] = BUILDING
     del is_ground
-    if is_cancelled is not None and is_cancelled():
-        raise Cancelled()
-
     labels[labels == UNASSIGNED] = AIR
-    enclose_air(labels)
     return labels
 
 

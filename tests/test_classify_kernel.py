@@ -43,3 +43,21 @@ def test_enclosed_air_is_the_same_either_way(with_numpy, kernel):
     turned = with_numpy(classify.enclose_air, expected)
     assert turned == 4 * 4 * 3 and classify.enclose_air(labels) == turned
     assert np.array_equal(labels, expected)
+
+
+@pytest.mark.parametrize("seed", range(8))
+@pytest.mark.parametrize("fill_to_top", [False, True])
+def test_first_labels_are_numpys(kernel, seed, fill_to_top):
+    """Ground of random heights, building cells below, in and above it,
+    repeated, columns with several: the labels before the air front."""
+    rng = np.random.default_rng(seed)
+    shape = tuple(int(v) for v in rng.integers(1, 25, 2)) + (int(rng.integers(3, 25)),)
+    top = rng.integers(0, shape[2] - 1, shape[:2])
+    cells = np.column_stack([rng.integers(0, shape[0], 300), rng.integers(0, shape[1], 300),
+                             rng.integers(0, shape[2], 300)])
+    if seed == 0:
+        cells = cells[:0]
+    expected = classify._label_columns(shape, top, cells, fill_to_top)
+    got = kernel.label_columns(shape, top, cells, fill_to_top, GROUND, BUILDING, AIR)
+    assert got.dtype == np.uint8 and np.array_equal(got, expected)
+    assert (expected == GROUND).any() and (seed == 0 or (expected == BUILDING).any())
