@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import compiled
-from .parallel import map_blocks, thread_blocks
+from .parallel import counted_then_listed, thread_blocks
 
 
 def critical_cubes(labels: np.ndarray, critical_by_sum: np.ndarray) -> np.ndarray:
@@ -37,17 +37,8 @@ def critical_cubes(labels: np.ndarray, critical_by_sum: np.ndarray) -> np.ndarra
     if nx < 2 or ny < 2 or nz < 2:
         return np.zeros(0, dtype=np.int64)
     critical_by_sum = np.ascontiguousarray(critical_by_sum, dtype=np.bool_)
-    slabs = thread_blocks(nx - 1)
-    counts = map_blocks(lambda rows: _critical(labels, critical_by_sum, rows.start, rows.stop, _NONE, 0), slabs)
-    first = np.cumsum([0] + counts)
-    out = np.empty(int(first[-1]), dtype=np.int64)
-    map_blocks(lambda job: _critical(labels, critical_by_sum, job[0].start, job[0].stop, out, job[1]),
-               list(zip(slabs, first[:-1].tolist())))
-    return out
-
-
-#: An empty output: a call that only counts.
-_NONE = np.empty(0, dtype=np.int64)
+    return counted_then_listed(lambda rows, out, at: _critical(labels, critical_by_sum, rows.start, rows.stop,
+                                                               out, at), thread_blocks(nx - 1))
 
 
 def warm_up() -> int:

@@ -23,6 +23,8 @@ import threading
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Callable, Iterable, Sequence, TypeVar
 
+import numpy as np
+
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -122,6 +124,34 @@ def thread_blocks(n: int, most: int | None = None) -> list[slice]:
     """
     size = max(1, -(-n // thread_count()))
     return row_blocks(n, size if most is None else max(1, min(most, size)))
+
+
+def counted_then_listed(run: Callable[[slice, np.ndarray, int], int], blocks: Sequence[slice]) -> np.ndarray:
+    """An int64 list made by a compiled pass over ``blocks`` run twice:
+    ``run(block, out, at)`` returns how many entries its block has, writing
+    them into ``out`` from ``at`` on unless ``out`` is empty. The first
+    round counts, the second writes each block's entries after those of the
+    blocks before it, on all cores, in the blocks' order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.array([3, -1, 4, -1, -5, 9])
+    >>> def negative(rows, out, at):
+    ...     found = np.flatnonzero(x[rows] < 0) + rows.start
+    ...     if len(out):
+    ...         out[at:at + len(found)] = found
+    ...     return len(found)
+    >>> counted_then_listed(negative, row_blocks(6, 4)).tolist()
+    [1, 3, 4]
+    """
+    nothing = np.empty(0, dtype=np.int64)
+    counts = map_blocks(lambda block: run(block, nothing, 0), blocks)
+    first = np.cumsum([0] + counts)
+    out = np.empty(int(first[-1]), dtype=np.int64)
+    if len(out):
+        map_blocks(lambda job: run(job[0], out, job[1]), list(zip(blocks, first[:-1].tolist())))
+    return out
 
 
 def _executor(threads: int) -> ThreadPoolExecutor:
