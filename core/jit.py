@@ -2,7 +2,8 @@
 
 A few steps are loops that numpy can only write as chains of whole-array
 passes over large temporaries, or searches that a KD-tree answers more
-generally than city data need: the air under cover that the air front
+generally than city data need: the binning of points into voxels and
+columns (:mod:`core.grid_kernel`), the air under cover that the air front
 may miss (:mod:`core.classify_kernel`), the critical cubes of the well-composed
 repair (:mod:`core.manifold_kernel`), the labelling of the blocks and the
 passes over them (:mod:`core.blocks_kernel`), the crossing search of the projection
@@ -44,9 +45,9 @@ from types import ModuleType
 from .errors import Cancelled
 
 #: The kernel modules of core, each with a ``warm_up()`` (see :func:`warm_up`).
-KERNELS = ("blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "manifold_kernel",
-           "neighbours_kernel", "projection_kernel", "quality_kernel", "smooth_kernel", "support_kernel",
-           "surface_kernel", "topology_kernel")
+KERNELS = ("blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
+           "manifold_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel", "smooth_kernel",
+           "support_kernel", "surface_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

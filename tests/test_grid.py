@@ -1,4 +1,5 @@
-"""Tests of core/grid.py's fast binning: the same cells, in the same order, as np.unique."""
+"""Tests of core/grid.py's binning: the same cells, in the same order, as np.unique, with
+numpy's passes and with the compiled kernel (core.grid_kernel)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,17 @@ import numpy as np
 import pytest
 
 from core.grid import VoxelGrid
+
+
+@pytest.fixture(params=["numpy", "compiled"], autouse=True)
+def binning(request, monkeypatch, compiled):
+    """Every test runs on numpy's binning and on the kernel's (for any size)."""
+    if request.param == "numpy":
+        monkeypatch.setenv("URBANVOX_JIT", "0")
+    else:
+        monkeypatch.setenv("URBANVOX_JIT", "always")
+        compiled("grid_kernel")
+    return request.param
 
 
 def unique_cells(grid: VoxelGrid, points: np.ndarray) -> np.ndarray:
@@ -22,8 +34,10 @@ def grid_around(points: np.ndarray, h: float) -> VoxelGrid:
 
 
 @pytest.mark.parametrize("h", [1.0, 0.5, 0.3, 2.0])
-@pytest.mark.parametrize("chunk", [7, 1000, 1 << 16])
-def test_random_points_match_unique(h, chunk):
+@pytest.mark.parametrize("chunk,threads", [(7, "1"), (1000, "3"), (1 << 16, "2")])
+def test_random_points_match_unique(h, chunk, threads, monkeypatch):
+    # Threads: the kernel's bitmaps, one per thread, merged.
+    monkeypatch.setenv("URBANVOX_THREADS", threads)
     rng = np.random.default_rng(int(h * 10) + chunk)
     points = rng.random((20_000, 3)) * np.array([60.0, 40.0, 25.0])
     grid = grid_around(points, h)
@@ -40,6 +54,15 @@ def test_points_on_cell_boundaries_and_outside_the_grid_are_clipped_alike():
     points = np.stack(np.meshgrid(edges, edges, edges, indexing="ij"), axis=-1).reshape(-1, 3)
     np.testing.assert_array_equal(grid.occupied_cells(points), unique_cells(grid, points))
 
+
+def test_voxels_at_every_place_of_a_bitmap_word_are_listed():
+    """The kernel's bitmap holds 64 voxels a word: every place, first and last voxel included."""
+    grid = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (7, 11, 5))
+    rng = np.random.default_rng(5)
+    for number in (np.arange(grid.n_voxels), rng.choice(grid.n_voxels, 40, replace=False), [0, grid.n_voxels - 1]):
+        ijk = np.column_stack([np.asarray(number) % 7, (np.asarray(number) // 7) % 11, np.asarray(number) // 77])
+        points = ijk + 0.5
+        np.testing.assert_array_equal(grid.occupied_cells(points), ijk[np.argsort(number)])
 
 
 def test_columns_are_those_of_cell_of_on_boundaries_and_outside_the_grid():
