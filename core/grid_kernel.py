@@ -21,10 +21,10 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import compiled
-from .parallel import map_blocks, thread_blocks
+from .parallel import map_blocks, row_blocks, thread_blocks, thread_count
 
-#: Points per block where a pass is cut into blocks on all cores.
-_BLOCK = 1 << 20
+#: Fewest points per thread of the binning; most per block of the column numbers.
+_BLOCK = 1 << 19
 #: The place of a word's single set bit: a de Bruijn sequence times the bit
 #: has a distinct top six bits for each place (a table of them below).
 _DE_BRUIJN = np.uint64(0x03F79D71B4CB0A89)
@@ -47,8 +47,10 @@ def occupied_cells(points: np.ndarray, origin: np.ndarray, voxel_size: float,
     origin = np.ascontiguousarray(origin, dtype=np.float64)
     nx, ny, nz = (int(n) for n in shape)
     words = (nx * ny * nz + 63) // 64
-    parts = thread_blocks(len(points))
-    # A bitmap per thread: two threads setting bits of one word would lose some.
+    # A bitmap per thread (two threads setting bits of one word would lose
+    # some), and threads only for many points: a bitmap's fresh pages and a
+    # thread's start cost more than a few hundred thousand points take.
+    parts = row_blocks(len(points), max(-(-len(points) // thread_count()), _BLOCK))
     bits = np.zeros((max(len(parts), 1), words), dtype=np.uint64)
 
     def mark(part: int) -> None:
