@@ -25,6 +25,8 @@ from .parallel import map_blocks, row_blocks, thread_blocks, thread_count
 
 #: Fewest points per thread of the binning; most per block of the column numbers.
 _BLOCK = 1 << 19
+#: Points whose numbers are made at a time (rows of a few kB, in the cache).
+_CHUNK = 512
 #: The place of a word's single set bit: a de Bruijn sequence times the bit
 #: has a distinct top six bits for each place (a table of them below).
 _DE_BRUIJN = np.uint64(0x03F79D71B4CB0A89)
@@ -96,19 +98,41 @@ def warm_up() -> int:
 def _cell(x, low, voxel_size, top):
     """One coordinate's cell as :meth:`core.grid.VoxelGrid.cell_of` makes it:
     the floor of ``(x - low) / voxel_size``, clipped to ``0..top``."""
-    c = np.floor((x - low) / voxel_size)
-    return int(min(max(c, 0.0), top))
+    return int(min(max(np.floor((x - low) / voxel_size), 0.0), top))
+
+
+@compiled
+def _gathered(points, first, count, x, y, z):
+    """Rows ``first:first + count`` of ``points`` (N, 3) into the rows ``x``, ``y``, ``z``."""
+    for q in range(count):
+        x[q], y[q], z[q] = points[first + q, 0], points[first + q, 1], points[first + q, 2]
+
+
+@compiled
+def _voxel_numbers(x, y, z, count, origin, voxel_size, nx, ny, nz, number):
+    """The voxel numbers of the first ``count`` points of rows ``x``, ``y``, ``z``.
+
+    A loop of its own over contiguous rows, which the compiler turns into
+    vector instructions: over the rows of an (N, 3) table, or with the bits
+    set in the same loop, it does not (0.04 -> 0.02 s for 3.3 M points)."""
+    for q in range(count):
+        i = _cell(x[q], origin[0], voxel_size, nx - 1.0)
+        j = _cell(y[q], origin[1], voxel_size, ny - 1.0)
+        k = _cell(z[q], origin[2], voxel_size, nz - 1.0)
+        number[q] = i + nx * (j + ny * k)
 
 
 @compiled
 def _mark(points, start, stop, origin, voxel_size, nx, ny, nz, bits):
-    """Set the bit of the voxel of every point of rows ``start:stop``."""
-    for p in range(start, stop):
-        i = _cell(points[p, 0], origin[0], voxel_size, nx - 1.0)
-        j = _cell(points[p, 1], origin[1], voxel_size, ny - 1.0)
-        k = _cell(points[p, 2], origin[2], voxel_size, nz - 1.0)
-        number = i + nx * (j + ny * k)
-        bits[number >> 6] |= np.uint64(1) << np.uint64(number & 63)
+    """Set the bit of the voxel of every point of rows ``start:stop``, ``_CHUNK`` points at a time."""
+    x, y, z = np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK)
+    number = np.empty(_CHUNK, np.int64)
+    for first in range(start, stop, _CHUNK):
+        count = min(_CHUNK, stop - first)
+        _gathered(points, first, count, x, y, z)
+        _voxel_numbers(x, y, z, count, origin, voxel_size, nx, ny, nz, number)
+        for q in range(count):
+            bits[number[q] >> 6] |= np.uint64(1) << np.uint64(number[q] & 63)
 
 
 @compiled
@@ -140,7 +164,12 @@ def _listed(bits, nx, ny):
 
 @compiled
 def _columns(points, start, stop, origin, voxel_size, nx, ny, column):
-    """Rows ``start:stop`` of :func:`column_of`."""
-    for p in range(start, stop):
-        column[p] = (_cell(points[p, 0], origin[0], voxel_size, nx - 1.0) * ny
-                     + _cell(points[p, 1], origin[1], voxel_size, ny - 1.0))
+    """Rows ``start:stop`` of :func:`column_of`, ``_CHUNK`` points at a time
+    (vector instructions, as :func:`_voxel_numbers`)."""
+    x, y, z = np.empty(_CHUNK), np.empty(_CHUNK), np.empty(_CHUNK)
+    for first in range(start, stop, _CHUNK):
+        count = min(_CHUNK, stop - first)
+        _gathered(points, first, count, x, y, z)
+        for q in range(count):
+            column[first + q] = (_cell(x[q], origin[0], voxel_size, nx - 1.0) * ny
+                                 + _cell(y[q], origin[1], voxel_size, ny - 1.0))
