@@ -207,8 +207,19 @@ def column_range(x, y, span, x0, y0, cell, nx, ny):
 def rising_from(start, height, column, low):
     """The first entry of ``column`` (sorted by ``height``, see
     :func:`by_column`) at or above ``low``, and the column's end."""
-    lo, hi = start[column], start[column + 1]
-    return lo + np.searchsorted(height[lo:hi], low), hi
+    lo, end = start[column], start[column + 1]
+    # A binary search written out: np.searchsorted on a slice made a view of
+    # it and called numpy's search, many times the cost of the few steps.
+    # (A NaN ``low`` gives the column's start, not its end: no height is at
+    # or below a NaN bound, so the callers' scans stop at once either way.)
+    hi = end
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if height[mid] < low:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo, end
 
 
 @compiled
@@ -284,6 +295,22 @@ def column_in_turn(visit, own, width, ix0, iy0):
 
 
 @compiled
+def beyond(qx, qy, ix, iy, x0, y0, cell, bound2):
+    """Whether every point of column (ix, iy) is farther than ``sqrt(bound2)``
+    from (qx, qy, any z), by more than round-off: the distance to the column's
+    square, less a billionth of its side (a point's column is the floor of a
+    rounded quotient, so it may lie that little outside), against a bound
+    widened as :func:`k_nearest` widens it for ties. An index's grid spans
+    its data (:func:`column_grid`), so no point is clipped into a border
+    column from beyond it."""
+    low_x, low_y = x0 + ix * cell, y0 + iy * cell
+    margin = 1e-9 * cell
+    dx = max(max(low_x - qx, qx - (low_x + cell)) - margin, 0.0)
+    dy = max(max(low_y - qy, qy - (low_y + cell)) - margin, 0.0)
+    return dx * dx + dy * dy > bound2 * (1 + 1e-12)
+
+
+@compiled
 def k_nearest(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start, points, dist, idx, key, q):
     """The k nearest within ``radius`` of (qx, qy, qz) into row ``q`` of
     ``dist`` and ``idx`` (in order, ``key`` holding their coordinates);
@@ -297,6 +324,9 @@ def k_nearest(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start,
     own, width, count = own_column_first(qx, qy, x0, y0, cell, ix0, ix1, iy0, iy1)
     for visit in range(count):
         ix, iy = column_in_turn(visit, own, width, ix0, iy0)
+        # A column whose every point is farther than the k-th found holds none of the k.
+        if kept == k and beyond(qx, qy, ix, iy, x0, y0, cell, last2):
+            continue
         t, hi = rising_from(start, points[2], ix + nx * iy, qz - box)
         while t < hi and points[2, t] <= qz + box:
             x, y, z = points[0, t], points[1, t], points[2, t]
