@@ -225,19 +225,23 @@ def _bucket(members, centre, reach, x0, y0, cell, nx, ny):
 
 
 @compiled
-def _edges_cross(positions, edges_of, face):
+def _edges_cross(positions, tri, edges_of, face):
     """Whether an edge of triangle ``edges_of`` crosses triangle ``face``
-    (node triples): :func:`core.intersect._edges_cross` for one pair, each
-    operation as there (``vectors.dot`` sums x and z first)."""
-    v0x, v0y, v0z = positions[face[0], 0], positions[face[0], 1], positions[face[0], 2]
-    e1x, e1y, e1z = positions[face[1], 0] - v0x, positions[face[1], 1] - v0y, positions[face[1], 2] - v0z
-    e2x, e2y, e2z = positions[face[2], 0] - v0x, positions[face[2], 1] - v0y, positions[face[2], 2] - v0z
+    (rows of ``tri``): :func:`core.intersect._edges_cross` for one pair, each
+    operation as there (``vectors.dot`` sums x and z first). Rows, not the
+    node triples: a row of ``tri`` taken as an array is a view made per call
+    (the 1 km city's search 2.78 -> 2.62-2.66 s on one core)."""
+    f0, f1, f2 = tri[face, 0], tri[face, 1], tri[face, 2]
+    v0x, v0y, v0z = positions[f0, 0], positions[f0, 1], positions[f0, 2]
+    e1x, e1y, e1z = positions[f1, 0] - v0x, positions[f1, 1] - v0y, positions[f1, 2] - v0z
+    e2x, e2y, e2z = positions[f2, 0] - v0x, positions[f2, 1] - v0y, positions[f2, 2] - v0z
     scale = 1e-12 * maximum(length(e1x, e1y, e1z) * length(e2x, e2y, e2z), 1e-300)
     eps = 1e-9
     for i in range(3):
         j = (i + 1) % 3  # the edges (0, 1), (1, 2), (2, 0)
-        ox, oy, oz = positions[edges_of[i], 0], positions[edges_of[i], 1], positions[edges_of[i], 2]
-        dx, dy, dz = positions[edges_of[j], 0] - ox, positions[edges_of[j], 1] - oy, positions[edges_of[j], 2] - oz
+        ei, ej = tri[edges_of, i], tri[edges_of, j]
+        ox, oy, oz = positions[ei, 0], positions[ei, 1], positions[ei, 2]
+        dx, dy, dz = positions[ej, 0] - ox, positions[ej, 1] - oy, positions[ej, 2] - oz
         hx, hy, hz = dy * e2z - dz * e2y, dz * e2x - dx * e2z, dx * e2y - dy * e2x
         det = (e1x * hx + e1z * hz) + e1y * hy
         if not abs(det) > scale * maximum(length(dx, dy, dz), 1e-300):
@@ -272,7 +276,7 @@ def _test_pair(qa, qb, positions, tri, lower, upper, in_focus, out, n):
                 overlap &= lower[c, ta] <= upper[c, tb] and lower[c, tb] <= upper[c, ta]
             if not overlap:
                 continue
-            if _edges_cross(positions, tri[ta], tri[tb]) or _edges_cross(positions, tri[tb], tri[ta]):
+            if _edges_cross(positions, tri, ta, tb) or _edges_cross(positions, tri, tb, ta):
                 if n == len(out):
                     grown = np.empty((2 * len(out), 2), np.int64)
                     grown[:n] = out

@@ -19,9 +19,11 @@ def test_edge_crossings_match_numpys_arithmetic_bit_for_bit(kernel):
 
     @numba.njit
     def every_pair(nodes, a, b):
+        # The kernel takes two rows of one triangle table.
+        both = np.concatenate((a, b))
         hit = np.zeros(len(a), np.bool_)
         for p in range(len(a)):
-            hit[p] = kernel._edges_cross(nodes, a[p], b[p])
+            hit[p] = kernel._edges_cross(nodes, both, p, len(a) + p)
         return hit
 
     rng = np.random.default_rng(8)
