@@ -278,7 +278,7 @@ def _search(seeds, centre, reach, is_seed, x0, y0, cell, nx, ny,
             ix0, ix1, iy0, iy1 = column_range(ax, ay, span, x0, y0, cell, nx, ny)
             for iy in range(iy0, iy1 + 1):
                 for ix in range(ix0, ix1 + 1):
-                    i, hi = rising_from(start, ball[2], ix + nx * iy, az - span)
+                    i, hi = rising_from(start, ball, ix + nx * iy, az - span)
                     while i < hi and ball[2, i] <= az + span:
                         dx, dy, dz = ball[0, i] - ax, ball[1, i] - ay, ball[2, i] - az
                         limit = (ra + ball[3, i]) * _MARGIN

@@ -204,9 +204,12 @@ def column_range(x, y, span, x0, y0, cell, nx, ny):
 
 
 @compiled
-def rising_from(start, height, column, low):
-    """The first entry of ``column`` (sorted by ``height``, see
-    :func:`by_column`) at or above ``low``, and the column's end."""
+def rising_from(start, rows, column, low):
+    """The first entry of ``column`` (sorted by height, see
+    :func:`by_column`) at or above ``low``, and the column's end; the
+    heights are row 2 of ``rows`` (3 or more, n). The table, not its row:
+    a row taken as an array is a view made at each call, and the searches
+    call this for every column they visit."""
     lo, end = start[column], start[column + 1]
     # A binary search written out: np.searchsorted on a slice made a view of
     # it and called numpy's search, many times the cost of the few steps.
@@ -215,7 +218,7 @@ def rising_from(start, height, column, low):
     hi = end
     while lo < hi:
         mid = (lo + hi) >> 1
-        if height[mid] < low:
+        if rows[2, mid] < low:
             lo = mid + 1
         else:
             hi = mid
@@ -327,7 +330,7 @@ def k_nearest(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start,
         # A column whose every point is farther than the k-th found holds none of the k.
         if kept == k and beyond(qx, qy, ix, iy, x0, y0, cell, last2):
             continue
-        t, hi = rising_from(start, points[2], ix + nx * iy, qz - box)
+        t, hi = rising_from(start, points, ix + nx * iy, qz - box)
         while t < hi and points[2, t] <= qz + box:
             x, y, z = points[0, t], points[1, t], points[2, t]
             t += 1

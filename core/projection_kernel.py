@@ -330,7 +330,7 @@ def _near_lines(at, normal, start_row, stop_row, k, radius, x0, y0, cell, nx, ny
         found = 0
         for iy in range(iy0, iy1 + 1):
             for ix in range(ix0, ix1 + 1):
-                t, hi = rising_from(start, points[2], ix + nx * iy, qz - box)
+                t, hi = rising_from(start, points, ix + nx * iy, qz - box)
                 while t < hi and points[2, t] <= qz + box:
                     x, y, z = points[0, t], points[1, t], points[2, t]
                     t += 1

@@ -143,7 +143,7 @@ def _near(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, s
         own, width, count = own_column_first(cx, cy, x0, y0, cell, ix0, ix1, iy0, iy1)
         for visit in range(count):
             ix, iy = column_in_turn(visit, own, width, ix0, iy0)
-            t, end = rising_from(start, points[2], ix + nx * iy, cz - box)
+            t, end = rising_from(start, points, ix + nx * iy, cz - box)
             while t < end and points[2, t] <= cz + box and not found:
                 dx, dy, dz = points[0, t] - cx, points[1, t] - cy, points[2, t] - cz
                 t += 1
@@ -173,7 +173,7 @@ def _above(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, 
         for visit in range(count):
             ix, iy = column_in_turn(visit, own, width, ix0, iy0)
             # A column's points by height: those from half a voxel below the centre up.
-            t, end = rising_from(start, points[2], ix + nx * iy, centre[f, 2] - half)
+            t, end = rising_from(start, points, ix + nx * iy, centre[f, 2] - half)
             while t < end and not found:
                 dx, dy = points[0, t] - cx, points[1, t] - cy
                 t += 1
