@@ -15,7 +15,8 @@ the smoothing's Catmull-Clark step (:mod:`core.smooth_kernel`), the
 elimination's support test (:mod:`core.support_kernel`), the faces between
 regions (:mod:`core.surface_kernel`), the selections
 of moved nodes and the faces around them (:mod:`core.topology_kernel`) and
-the connected parts of the gmsh export (:mod:`core.export_kernel`).
+the connected parts of the gmsh export (:mod:`core.export_kernel`) and
+the per-block sums of the measures (:mod:`core.measure_kernel`).
 numba compiles such loops; the issue that asked for speed allows a compiled
 kernel only where numpy cannot reach the target, and only with the same
 results.
@@ -46,8 +47,8 @@ from .errors import Cancelled
 
 #: The kernel modules of core, each with a ``warm_up()`` (see :func:`warm_up`).
 KERNELS = ("blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
-           "manifold_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel", "smooth_kernel",
-           "support_kernel", "surface_kernel", "topology_kernel")
+           "manifold_kernel", "measure_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel",
+           "smooth_kernel", "support_kernel", "surface_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

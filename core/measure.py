@@ -17,7 +17,7 @@ import numpy as np
 from . import jit
 from .blocks import BlockRows
 from .parallel import map_blocks, row_blocks
-from .quality import best_split
+from .quality import best_diagonal_quality, quad_quality, split_along
 from .surface import SurfaceModel
 from .vectors import coordinates, cross, dot, length, minus
 
@@ -76,40 +76,19 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     a, b = model.regions[:, 0], model.regions[:, 1]
     block = np.flatnonzero((a > 0) | (b > 0))
     # take and compress: row gathers faster than indexing (core.vectors).
-    split, split_quality = best_split(nodes, model.quads.take(block, axis=0))
-    split = split.reshape(-1, 2, 3)
+    block_quads = model.quads.take(block, axis=0)
+    diagonal, split_quality = best_diagonal_quality(nodes, block_quads)
     outward = a[block] > 0
-    triangles = np.concatenate([split.compress(outward, axis=0).reshape(-1, 3),
-                                split.compress(~outward, axis=0).reshape(-1, 3)[:, ::-1]])
-    tri_owner = np.repeat(owner, 2)
-    quality = np.concatenate([split_quality[outward], best_split(nodes, quads[outward.sum():])[1]])
-    # Signed volume of the tetrahedra to a per-block reference point (any
-    # point works for a closed surface; a nearby one keeps round-off small).
-    count = np.bincount(tri_owner, minlength=n_blocks + 1)
-    first = coordinates(nodes, triangles[:, 0])
-    reference = np.column_stack([np.bincount(tri_owner, weights=first[c], minlength=n_blocks + 1)
-                                 for c in range(3)]) / np.maximum(count, 1)[:, None]
-    del first
-    tri_area, six_v, nz = np.empty(len(triangles)), np.empty(len(triangles)), np.empty(len(triangles))
-
-    def fill(rows: slice) -> None:
-        # A block of triangles at a time, one array per coordinate
-        # (core.vectors): the numbers of a (T, 3, 3) table of corners
-        # without the table (hundreds of MB on a city).
-        p = [coordinates(nodes, triangles[rows, k]) for k in range(3)]
-        twice_area = cross(minus(p[1], p[0]), minus(p[2], p[0]))
-        tri_area[rows] = area = 0.5 * length(twice_area)
-        centre = coordinates(reference, tri_owner[rows])
-        r = [minus(corner, centre) for corner in p]
-        six_v[rows] = dot(r[0], cross(r[1], r[2]))
-        nz[rows] = np.divide(twice_area[2], 2 * area, out=np.zeros_like(area), where=area > 0)
-
-    map_blocks(fill, row_blocks(len(triangles), _ROWS))
+    quality = np.concatenate([split_quality[outward], quad_quality(nodes, quads[outward.sum():])])
     limit = np.sin(np.radians(facade_tilt))
-    roof = nz >= limit
-    facade = np.abs(nz) < limit
+    # The same sums in two compiled passes over the faces (core.measure_kernel).
+    sums = jit.run("measure_kernel", "triangle_sums", nodes, block_quads, diagonal, outward, owner, n_blocks, limit,
+                   size=2 * len(block))
+    if sums is None:
+        sums = triangle_sums(nodes, block_quads, diagonal, outward, owner, n_blocks, limit)
+    six_volume, area, roof_area, facade_area = (total[1:] for total in sums)
 
-    def per_block(weights: np.ndarray, owners: np.ndarray = tri_owner) -> np.ndarray:
+    def per_block(weights: np.ndarray, owners: np.ndarray) -> np.ndarray:
         return np.bincount(owners, weights=weights, minlength=n_blocks + 1)[1:]
 
     quad_count = np.bincount(owner, minlength=n_blocks + 1)[1:]
@@ -134,15 +113,75 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
         mean_dist = per_block(d, pair_block) / np.maximum(per_node, 1)
         max_dist = extreme_per_block(pair_block, d, n_blocks, largest=True, initial=0.0)[1:]
     return BlockMeasures(
-        volume=per_block(six_v) / 6.0,
-        area=per_block(tri_area),
-        roof_area=per_block(tri_area * roof),
-        facade_area=per_block(tri_area * facade),
+        volume=six_volume / 6.0,
+        area=area,
+        roof_area=roof_area,
+        facade_area=facade_area,
         min_quality=min_quality[1:],
         mean_quality=per_block(quality, owner) / np.maximum(quad_count, 1),
         mean_dist=mean_dist,
         max_dist=max_dist,
     )
+
+
+def triangle_sums(nodes: np.ndarray, quads: np.ndarray, use_second: np.ndarray, outward: np.ndarray,
+                  owner: np.ndarray, n_blocks: int, limit: float) -> tuple[np.ndarray, ...]:
+    """Per-block sums over the triangles of the block faces: six times the
+    signed volume to a per-block reference point, the area, and the area of
+    the roof and of the facade triangles (n_blocks + 1 each).
+
+    The faces ``quads`` (as the model orients them) are split along the
+    diagonal 1-3 where ``use_second``, else 0-2 (:func:`core.quality.split_along`);
+    the triangles of the faces ``outward`` from their block come first, then
+    the others reversed; ``owner`` is the block of each face in that order.
+    A triangle is a roof where its normal's z is at least ``limit``, a facade
+    where its absolute value is below it. :mod:`core.measure_kernel` makes
+    the same sums in two compiled passes, without the table of triangles.
+
+    Examples
+    --------
+    A unit cube's six faces, oriented out of block 1:
+
+    >>> nodes = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    >>> quads = np.array([[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]])
+    >>> n = len(quads)
+    >>> sums = triangle_sums(nodes, quads, np.zeros(n, bool), np.ones(n, bool), np.ones(n, np.int64), 1, 0.5)
+    >>> [round(float(s[1]), 9) for s in sums]  # six times the volume, area, roof, facades
+    [6.0, 6.0, 1.0, 4.0]
+    """
+    split = split_along(quads, use_second).reshape(-1, 2, 3)
+    triangles = np.concatenate([split.compress(outward, axis=0).reshape(-1, 3),
+                                split.compress(~outward, axis=0).reshape(-1, 3)[:, ::-1]])
+    tri_owner = np.repeat(owner, 2)
+    # Signed volume of the tetrahedra to a per-block reference point (any
+    # point works for a closed surface; a nearby one keeps round-off small).
+    count = np.bincount(tri_owner, minlength=n_blocks + 1)
+    first = coordinates(nodes, triangles[:, 0])
+    reference = np.column_stack([np.bincount(tri_owner, weights=first[c], minlength=n_blocks + 1)
+                                 for c in range(3)]) / np.maximum(count, 1)[:, None]
+    del first
+    tri_area, six_v, nz = np.empty(len(triangles)), np.empty(len(triangles)), np.empty(len(triangles))
+
+    def fill(rows: slice) -> None:
+        # A block of triangles at a time, one array per coordinate
+        # (core.vectors): the numbers of a (T, 3, 3) table of corners
+        # without the table (hundreds of MB on a city).
+        p = [coordinates(nodes, triangles[rows, k]) for k in range(3)]
+        twice_area = cross(minus(p[1], p[0]), minus(p[2], p[0]))
+        tri_area[rows] = area = 0.5 * length(twice_area)
+        centre = coordinates(reference, tri_owner[rows])
+        r = [minus(corner, centre) for corner in p]
+        six_v[rows] = dot(r[0], cross(r[1], r[2]))
+        nz[rows] = np.divide(twice_area[2], 2 * area, out=np.zeros_like(area), where=area > 0)
+
+    map_blocks(fill, row_blocks(len(triangles), _ROWS))
+    roof = nz >= limit
+    facade = np.abs(nz) < limit
+
+    def per_block(weights: np.ndarray) -> np.ndarray:
+        return np.bincount(tri_owner, weights=weights, minlength=n_blocks + 1)
+
+    return per_block(six_v), per_block(tri_area), per_block(tri_area * roof), per_block(tri_area * facade)
 
 
 def extreme_per_block(owner: np.ndarray, values: np.ndarray, n_blocks: int, largest: bool,

@@ -101,6 +101,21 @@ def best_diagonal(nodes: np.ndarray, quads: np.ndarray) -> np.ndarray:
     return _split_quality(nodes, quads, normals=False)[0]
 
 
+def best_diagonal_quality(nodes: np.ndarray, quads: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`best_diagonal`, and each quad's quality under that split (as
+    :func:`best_split` gives it), from one pass.
+
+    Examples
+    --------
+    >>> nodes = np.array([[0, 0, 0], [1, -0.2, 0], [2, 0, 0], [1, 0.2, 0]], float)
+    >>> diagonal, quality = best_diagonal_quality(nodes, np.array([[0, 1, 2, 3]]))
+    >>> diagonal.tolist(), bool(quality[0] == best_split(nodes, np.array([[0, 1, 2, 3]]))[1][0])
+    ([True], True)
+    """
+    use_second, quality, _ = _split_quality(nodes, quads, normals=False)
+    return use_second, quality
+
+
 def split_along(quads: np.ndarray, use_second: np.ndarray, dtype: type | None = None) -> np.ndarray:
     """The two triangles of every quad, split along diagonal 1-3 where
     ``use_second``, else 0-2 (rows ``2m`` and ``2m + 1`` from quad ``m``, in
