@@ -59,6 +59,12 @@ class NodeRoles:
     @classmethod
     def of(cls, model: SurfaceModel, box_lower: np.ndarray, box_upper: np.ndarray) -> "NodeRoles":
         n = len(model.nodes)
+        tol = 1e-9 * max(1.0, float(np.abs(box_upper - box_lower).max()))
+        # The same masks in a pass over the quads and one over the nodes (core.smooth_kernel).
+        found = jit.run("smooth_kernel", "node_roles", model.quads, model.regions, model.nodes, box_lower, box_upper,
+                        tol, GROUND_REGION, AIR_REGION, OUTSIDE_REGION, size=len(model.quads))
+        if found is not None:
+            return cls(*found)
         a, b = model.regions[:, 0], model.regions[:, 1]
         block_face = (a > 0) | (b > 0)
         ground_face = (a == GROUND_REGION) | (b == GROUND_REGION)
@@ -69,7 +75,6 @@ class NodeRoles:
         on_ground = _nodes_of(model.quads.compress(ground_face, axis=0), n)
         foot = on_block & _nodes_of(model.quads.compress(ground_air, axis=0), n)
         inside = _nodes_of(model.quads.compress(inner_face, axis=0), n)
-        tol = 1e-9 * max(1.0, float(np.abs(box_upper - box_lower).max()))
         fixed_axes = (np.abs(model.nodes - box_lower) < tol) | (np.abs(model.nodes - box_upper) < tol)
         fixed_axes[:, 2] |= foot
         movable = (on_block | on_ground) & inside & ~fixed_axes.all(axis=1)

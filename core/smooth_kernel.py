@@ -1,4 +1,5 @@
-"""Compiled vertex-only Catmull-Clark step (numba, :mod:`core.jit`).
+"""Compiled vertex-only Catmull-Clark step (numba, :mod:`core.jit`), and the
+nodes' roles that constrain it.
 
 A step of :class:`core.smooth.CatmullClarkStep` is four sparse products
 (face centres, their sums at the nodes, edge midpoints, theirs), a weighted
@@ -79,6 +80,30 @@ def _summed(positions: np.ndarray, nodes: np.ndarray, corners: np.ndarray, per: 
     return total
 
 
+def node_roles(quads: np.ndarray, regions: np.ndarray, nodes: np.ndarray, lower: np.ndarray, upper: np.ndarray,
+               tol: float, ground: int, air: int, outside: int) -> tuple[np.ndarray, ...]:
+    """The masks of :meth:`core.smooth.NodeRoles.of` in one pass over the
+    quads and one over the nodes, where numpy makes some twenty passes and
+    four compressed copies of the quads (0.43 s on the 1 km synthetic city).
+
+    Returns
+    -------
+    on_block, on_ground, foot, fixed_axes, movable
+        As :class:`core.smooth.NodeRoles`.
+    """
+    n = len(nodes)
+    on_block, on_ground = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    on_ground_air, inside = np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    _mark_roles(quads, regions, ground, air, outside, on_block, on_ground, on_ground_air, inside)
+    foot = on_block & on_ground_air
+    fixed_axes = np.empty((n, 3), dtype=bool)
+    movable = np.empty(n, dtype=bool)
+    _fix_axes(np.ascontiguousarray(nodes, dtype=np.float64), np.asarray(lower, dtype=np.float64),
+              np.asarray(upper, dtype=np.float64), float(tol), foot, on_block, on_ground, inside,
+              fixed_axes, movable)
+    return on_block, on_ground, foot, fixed_axes, movable
+
+
 def warm_up() -> int:
     """Compile for the types :class:`core.smooth.CatmullClarkStep` passes
     (scipy's index arrays are int32, int64 on very large surfaces)."""
@@ -93,6 +118,10 @@ def warm_up() -> int:
         target = step_into(np.zeros_like(nodes), nodes, step.nodes, np.ones(8, bool), corners.astype(dtype),
                            ends.astype(dtype), *weights)
         assert np.array_equal(target, expected), target
+    regions = np.array([[1, -1], [1, -2], [-2, -1], [-1, -3]], dtype=np.int32)
+    for dtype in (np.int32, np.int64):
+        roles = node_roles(cube[:4].astype(dtype), regions, nodes, np.zeros(3), np.full(3, 2.0), 1e-9, -2, -1, -3)
+        assert [int(mask.sum()) for mask in roles] == [8, 6, 4, 24, 0], roles
     return 1
 
 
@@ -133,3 +162,40 @@ def _combine(target, positions, nodes, which, face_sum, edge_sum, face_weight, e
         for c in range(3):
             target[i, c] = (face_weight[s] * face_sum[s, c] + edge_weight[s] * edge_sum[s, c]) \
                 + own_weight[s] * positions[i, c]
+
+
+@compiled
+def _mark_roles(quads, regions, ground, air, outside, on_block, on_ground, on_ground_air, inside):
+    """Mark the nodes of the block faces, the ground faces, the faces
+    between ground and air, and the faces inside the domain."""
+    for m in range(len(quads)):
+        a, b = regions[m, 0], regions[m, 1]
+        block = a > 0 or b > 0
+        ground_face = a == ground or b == ground
+        ground_air = (a == ground and b == air) or (a == air and b == ground)
+        inner = a != outside and b != outside
+        for k in range(4):
+            j = quads[m, k]
+            if block:
+                on_block[j] = True
+            if ground_face:
+                on_ground[j] = True
+            if ground_air:
+                on_ground_air[j] = True
+            if inner:
+                inside[j] = True
+
+
+@compiled
+def _fix_axes(nodes, lower, upper, tol, foot, on_block, on_ground, inside, fixed_axes, movable):
+    """The coordinates each node keeps (on a plane of the domain's box, and
+    the foot's z) and whether it moves at all, as NodeRoles.of computes them."""
+    for j in range(len(nodes)):
+        every = True
+        for c in range(3):
+            fixed = abs(nodes[j, c] - lower[c]) < tol or abs(nodes[j, c] - upper[c]) < tol
+            if c == 2:
+                fixed = fixed or foot[j]
+            fixed_axes[j, c] = fixed
+            every = every and fixed
+        movable[j] = (on_block[j] or on_ground[j]) and inside[j] and not every

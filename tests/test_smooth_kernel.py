@@ -61,3 +61,21 @@ def test_int64_tables_give_the_same_positions(kernel):
     expected = nodes.copy()
     expected[step.nodes] = step(nodes)
     assert np.array_equal(narrow, expected)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_node_roles_are_numpys(monkeypatch, kernel, seed):
+    """The nodes' roles from the kernel's two passes, against NodeRoles.of's
+    numpy masks: the domain box's planes, the ground/building/air line."""
+    from core.smooth import NodeRoles
+
+    model, _, _ = shaken_blocks(seed)
+    box = (np.zeros(3), np.array([30.0, 25.0, 12.0]))
+    got = NodeRoles.of(model, *box)
+    with monkeypatch.context() as patch:
+        patch.setenv("URBANVOX_JIT", "0")
+        expected = NodeRoles.of(model, *box)
+    for name in ("on_block", "on_ground", "foot", "fixed_axes", "movable"):
+        assert np.array_equal(getattr(got, name), getattr(expected, name)), name
+    assert expected.foot.any() and expected.fixed_axes.any() and expected.movable.any()
+    assert not expected.movable.all() and (expected.fixed_axes.sum(axis=1) == 1).any()
