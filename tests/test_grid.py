@@ -104,3 +104,4 @@ def test_empty_point_set():
     grid = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (3, 3, 3))
     assert grid.occupied_cells(np.zeros((0, 3))).shape == (0, 3)
     assert not grid.occupancy(np.zeros((0, 3))).any()
+
