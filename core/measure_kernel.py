@@ -63,10 +63,12 @@ def triangle_sums(nodes: np.ndarray, quads: np.ndarray, use_second: np.ndarray, 
     sums = np.zeros((4, n_blocks + 1))
     reference = np.zeros((n_blocks + 1, 3))
     count = np.zeros(n_blocks + 1, dtype=np.int64)
-    _references(nodes, quads, use_second, outward, owner, reference, count)
+    # The faces in the triangles' order: those outward from their block, then the others.
+    faces = np.concatenate([np.flatnonzero(outward), np.flatnonzero(~outward)])
+    _references(nodes, quads, use_second, outward, faces, owner, reference, count)
     # As numpy: the sums over a block's first corners, over at least one.
     reference /= np.maximum(count, 1)[:, None]
-    _sums(nodes, quads, use_second, outward, owner, reference, float(limit), sums)
+    _sums(nodes, quads, use_second, outward, faces, owner, reference, float(limit), sums)
     return sums[0], sums[1], sums[2], sums[3]
 
 
@@ -91,53 +93,43 @@ def _corner(quads, use_second, outward, face, triangle, k):
 
 
 @compiled
-def _references(nodes, quads, use_second, outward, owner, reference, count):
+def _references(nodes, quads, use_second, outward, faces, owner, reference, count):
     """Sum each block's triangles' first corners into ``reference`` and count
-    its triangles, in the triangles' order."""
-    m = 0
-    for side in range(2):
-        for face in range(len(quads)):
-            if outward[face] != (side == 0):
-                continue
-            block = owner[m]
-            m += 1
-            for triangle in range(2):
-                a = _corner(quads, use_second, outward, face, triangle, 0)
-                count[block] += 1
-                reference[block, 0] += nodes[a, 0]
-                reference[block, 1] += nodes[a, 1]
-                reference[block, 2] += nodes[a, 2]
+    its triangles, in the triangles' order (``faces`` in turn, ``owner`` theirs)."""
+    for m in range(len(faces)):
+        face, block = faces[m], owner[m]
+        for triangle in range(2):
+            a = _corner(quads, use_second, outward, face, triangle, 0)
+            count[block] += 1
+            reference[block, 0] += nodes[a, 0]
+            reference[block, 1] += nodes[a, 1]
+            reference[block, 2] += nodes[a, 2]
 
 
 @compiled
-def _sums(nodes, quads, use_second, outward, owner, reference, limit, sums):
+def _sums(nodes, quads, use_second, outward, faces, owner, reference, limit, sums):
     """Add each triangle's six times signed volume to its block's reference,
     its area, and its area again where it is a roof or a facade, into
     ``sums`` (4, n + 1), with :func:`core.measure.measure_blocks`'s operations."""
-    m = 0
-    for side in range(2):
-        for face in range(len(quads)):
-            if outward[face] != (side == 0):
-                continue
-            block = owner[m]
-            m += 1
-            cx, cy, cz = reference[block, 0], reference[block, 1], reference[block, 2]
-            for triangle in range(2):
-                a = _corner(quads, use_second, outward, face, triangle, 0)
-                b = _corner(quads, use_second, outward, face, triangle, 1)
-                c = _corner(quads, use_second, outward, face, triangle, 2)
-                ux, uy, uz = nodes[b, 0] - nodes[a, 0], nodes[b, 1] - nodes[a, 1], nodes[b, 2] - nodes[a, 2]
-                vx, vy, vz = nodes[c, 0] - nodes[a, 0], nodes[c, 1] - nodes[a, 1], nodes[c, 2] - nodes[a, 2]
-                tx, ty, tz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-                area = 0.5 * length(tx, ty, tz)
-                r0x, r0y, r0z = nodes[a, 0] - cx, nodes[a, 1] - cy, nodes[a, 2] - cz
-                r1x, r1y, r1z = nodes[b, 0] - cx, nodes[b, 1] - cy, nodes[b, 2] - cz
-                r2x, r2y, r2z = nodes[c, 0] - cx, nodes[c, 1] - cy, nodes[c, 2] - cz
-                wx, wy, wz = r1y * r2z - r1z * r2y, r1z * r2x - r1x * r2z, r1x * r2y - r1y * r2x
-                six_volume = (r0x * wx + r0z * wz) + r0y * wy  # core.vectors.dot: x and z first
-                nz = tz / (2 * area) if area > 0 else 0.0
-                sums[0, block] += six_volume
-                sums[1, block] += area
-                # numpy adds area * mask: area or zero, the same sums.
-                sums[2, block] += area * (1.0 if nz >= limit else 0.0)
-                sums[3, block] += area * (1.0 if abs(nz) < limit else 0.0)
+    for m in range(len(faces)):
+        face, block = faces[m], owner[m]
+        cx, cy, cz = reference[block, 0], reference[block, 1], reference[block, 2]
+        for triangle in range(2):
+            a = _corner(quads, use_second, outward, face, triangle, 0)
+            b = _corner(quads, use_second, outward, face, triangle, 1)
+            c = _corner(quads, use_second, outward, face, triangle, 2)
+            ux, uy, uz = nodes[b, 0] - nodes[a, 0], nodes[b, 1] - nodes[a, 1], nodes[b, 2] - nodes[a, 2]
+            vx, vy, vz = nodes[c, 0] - nodes[a, 0], nodes[c, 1] - nodes[a, 1], nodes[c, 2] - nodes[a, 2]
+            tx, ty, tz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+            area = 0.5 * length(tx, ty, tz)
+            r0x, r0y, r0z = nodes[a, 0] - cx, nodes[a, 1] - cy, nodes[a, 2] - cz
+            r1x, r1y, r1z = nodes[b, 0] - cx, nodes[b, 1] - cy, nodes[b, 2] - cz
+            r2x, r2y, r2z = nodes[c, 0] - cx, nodes[c, 1] - cy, nodes[c, 2] - cz
+            wx, wy, wz = r1y * r2z - r1z * r2y, r1z * r2x - r1x * r2z, r1x * r2y - r1y * r2x
+            six_volume = (r0x * wx + r0z * wz) + r0y * wy  # core.vectors.dot: x and z first
+            nz = tz / (2 * area) if area > 0 else 0.0
+            sums[0, block] += six_volume
+            sums[1, block] += area
+            # numpy adds area * mask: area or zero, the same sums.
+            sums[2, block] += area * (1.0 if nz >= limit else 0.0)
+            sums[3, block] += area * (1.0 if abs(nz) < limit else 0.0)
