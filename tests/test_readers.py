@@ -485,3 +485,21 @@ def test_real_zurich_stl(shared_data):
     near = tree.query_ball_point(ground[::50, :2], r=15.0)
     local_low = np.array([z[i].min() for i in near])
     assert np.all(ground[::50, 2] - local_low <= 3.0 + 0.15 * 30)
+
+
+def test_rows_are_written_in_place_grown_past_the_count_and_trimmed():
+    """The reader's table of points (core.readers.las._Rows): chunks written in
+    turn, non-finite rows of the last chunk dropped, more rows than the headers
+    counted, and the table trimmed to the rows written."""
+    from core.readers.las import _Rows
+
+    rows = _Rows(4)
+    rows.next(3)[:] = [[0, 0, 0], [1, 1, 1], [2, 2, 2]]
+    part = rows.next(3)
+    part[:] = [[3, 3, 3], [np.nan, 0, 0], [5, 5, 5]]
+    rows.keep_last(np.isfinite(part).all(axis=1))
+    rows.next(1)[:] = [[6, 6, 6]]
+    table = rows.result()
+    assert table.shape == (6, 3) and table.flags.owndata
+    assert table[:, 0].tolist() == [0, 1, 2, 3, 5, 6]
+    assert _Rows(10).result().shape == (0, 3)

@@ -238,14 +238,51 @@ def _collection_crs(
     return resolved
 
 
+class _Rows:
+    """Points (n, 3) written chunk by chunk into one table as long as the
+    files' points, trimmed in place at the end (``ndarray.resize``: a
+    ``realloc`` that keeps the start). The chunks' own arrays joined by
+    ``np.concatenate`` held every point twice at the end of the read, and
+    their copy faulted in fresh memory for all of them: 3.3 of the 12.4 s
+    of reading the 2 km synthetic city's 50 M points. The table's pages are
+    only touched where points are written."""
+
+    def __init__(self, most: int):
+        self.table = np.empty((most, 3), dtype=np.float64)
+        self.n = 0
+
+    def next(self, count: int) -> np.ndarray:
+        """The next ``count`` rows, to be written."""
+        if self.n + count > len(self.table):  # a header that counts fewer points than its file holds
+            grown = np.empty((max(2 * len(self.table), self.n + count), 3), dtype=np.float64)
+            grown[:self.n] = self.table[:self.n]
+            self.table = grown
+        rows = self.table[self.n:self.n + count]
+        self.n += count
+        return rows
+
+    def keep_last(self, keep: np.ndarray) -> None:
+        """Keep only the rows ``keep`` (a mask) of the rows last given by :meth:`next`."""
+        start = self.n - len(keep)
+        kept = self.table[start:self.n].compress(keep, axis=0)
+        self.table[start:start + len(kept)] = kept
+        self.n = start + len(kept)
+
+    def result(self) -> np.ndarray:
+        """The rows written, as an array of their own."""
+        table, self.table = self.table, np.empty((0, 3))
+        table.resize((self.n, 3), refcheck=False)
+        return table
+
+
 def _read_file(
     reader: "laspy.LasReader",
     path: str,
     ground_codes: np.ndarray,
     building_codes: np.ndarray,
     counts: np.ndarray,
-    ground_parts: List[np.ndarray],
-    building_parts: List[np.ndarray],
+    ground_rows: "_Rows",
+    building_rows: "_Rows",
     is_cancelled: Optional[Callable[[], bool]],
 ) -> Tuple[int, int, int]:
     """Stream one file; append kept points; return (points read, non-finite, withheld)."""
@@ -266,11 +303,11 @@ def _read_file(
             keep = ~keep
             is_ground = np.isin(cls, ground_codes) & keep
             is_building = np.isin(cls, building_codes) & keep
-            for mask, parts in ((is_ground, ground_parts), (is_building, building_parts)):
+            for mask, rows in ((is_ground, ground_rows), (is_building, building_rows)):
                 if not mask.any():
                     continue
                 # Scale only the kept points; float64 keeps the header's precision.
-                xyz = np.empty((int(mask.sum()), 3), dtype=np.float64)
+                xyz = rows.next(int(mask.sum()))
                 # compress: 2.5 times faster than indexing with a mask (core.vectors).
                 xyz[:, 0] = np.asarray(chunk.X).compress(mask) * scales[0] + offsets[0]
                 xyz[:, 1] = np.asarray(chunk.Y).compress(mask) * scales[1] + offsets[1]
@@ -278,8 +315,7 @@ def _read_file(
                 if not all_finite(xyz):
                     finite = finite_rows(xyz)
                     n_bad += int((~finite).sum())
-                    xyz = xyz.compress(finite, axis=0)
-                parts.append(xyz)
+                    rows.keep_last(finite)
     except UrbanvoxError:
         raise
     except Exception as exc:  # lazrs / laspy decoding errors on truncated or corrupt data
@@ -348,17 +384,18 @@ def read_point_clouds(
 
     # Pass 1: headers only, so CRS problems are reported before any long read.
     header_crss: List[Optional[pyproj.CRS]] = []
+    most = 0
     for path in files:
         with _open(path) as reader:
             if reader.header.point_count == 0:
                 raise UrbanvoxError(f"{path} contains no points (empty LAS file); remove it from the inputs.")
             header_crss.append(_header_crs(reader.header, path, warnings))
+            most += int(reader.header.point_count)
     resolved = _collection_crs(files, header_crss, crs, warnings)
 
     # Pass 2: stream the points.
     counts = np.zeros(256, dtype=np.int64)
-    ground_parts: List[np.ndarray] = []
-    building_parts: List[np.ndarray] = []
+    ground_rows, building_rows = _Rows(most), _Rows(most)
     g_codes = np.asarray(ground, dtype=np.uint8)
     b_codes = np.asarray(building, dtype=np.uint8)
     n_points = n_bad = n_withheld = 0
@@ -367,7 +404,7 @@ def read_point_clouds(
             raise Cancelled()
         with _open(path) as reader:
             n, bad, withheld = _read_file(
-                reader, path, g_codes, b_codes, counts, ground_parts, building_parts, is_cancelled
+                reader, path, g_codes, b_codes, counts, ground_rows, building_rows, is_cancelled
             )
         if n == 0:
             raise UrbanvoxError(f"{path} contains no points (empty LAS file); remove it from the inputs.")
@@ -377,8 +414,7 @@ def read_point_clouds(
 
     present = np.flatnonzero(counts)
     class_counts = {int(c): int(counts[c]) for c in present}
-    ground_xyz = np.concatenate(ground_parts) if ground_parts else np.empty((0, 3))
-    building_xyz = np.concatenate(building_parts) if building_parts else np.empty((0, 3))
+    ground_xyz, building_xyz = ground_rows.result(), building_rows.result()
     listing = ", ".join(f"{class_label(c)}: {n}" for c, n in class_counts.items())
 
     if len(ground_xyz) == 0 and n_bad:
