@@ -350,8 +350,7 @@ def _near_lines(at, normal, start_row, stop_row, k, radius, x0, y0, cell, nx, ny
             while kept < tries:
                 b = 0
                 for h in range(1, left):
-                    m, c = rank[h], rank[b]
-                    if before(line[m], px[m], py[m], pz[m], point[m], line[c], px[c], py[c], pz[c], point[c]):
+                    if _nearer(rank[h], rank[b], line, px, py, pz, point):
                         b = h
                 c = rank[b]
                 # How many come before it: a count without branches, then the ties.
@@ -361,8 +360,7 @@ def _near_lines(at, normal, start_row, stop_row, k, radius, x0, y0, cell, nx, ny
                     equal += dist[m] == dc
                 if equal > 1:
                     for m in range(found):
-                        if dist[m] == dc and m != c and before(dc, px[m], py[m], pz[m], point[m],
-                                                               dc, px[c], py[c], pz[c], point[c]):
+                        if dist[m] == dc and m != c and _nearer(m, c, dist, px, py, pz, point):
                             nearer += 1
                 if nearer >= k:
                     break
@@ -404,9 +402,10 @@ def _near_lines(at, normal, start_row, stop_row, k, radius, x0, y0, cell, nx, ny
 
 
 @inlined
-def _nearer(a, b, dist, px, py, pz, point):
-    """Whether found point ``a`` comes before ``b`` (distance, x, y, z, point number)."""
-    return before(dist[a], px[a], py[a], pz[a], point[a], dist[b], px[b], py[b], pz[b], point[b])
+def _nearer(a, b, key, px, py, pz, point):
+    """Whether found point ``a`` comes before ``b`` by ``key`` (their distances to the node, or
+    to its line), then x, y, z and point number (:func:`core.neighbours_kernel.before`)."""
+    return before(key[a], px[a], py[a], pz[a], point[a], key[b], px[b], py[b], pz[b], point[b])
 
 
 @inlined
