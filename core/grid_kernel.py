@@ -25,8 +25,9 @@ import numpy as np
 from .neighbours_kernel import compiled
 from .parallel import map_blocks, row_blocks, thread_blocks, thread_count
 
-#: Fewest points per thread of the binning; most per block of the column numbers.
-_BLOCK = 1 << 19
+#: Fewest points per thread of the binning: a bitmap's fresh pages and a
+#: thread's start cost more than fewer points take.
+_THREAD_POINTS = 1 << 19
 #: Points whose numbers are made at a time (rows of a few kB, in the cache).
 _CHUNK = 512
 #: The place of a word's single set bit: a de Bruijn sequence times the bit
@@ -51,10 +52,8 @@ def occupied_cells(points: np.ndarray, origin: np.ndarray, voxel_size: float,
     origin = np.ascontiguousarray(origin, dtype=np.float64)
     nx, ny, nz = (int(n) for n in shape)
     words = (nx * ny * nz + 63) // 64
-    # A bitmap per thread (two threads setting bits of one word would lose
-    # some), and threads only for many points: a bitmap's fresh pages and a
-    # thread's start cost more than a few hundred thousand points take.
-    parts = row_blocks(len(points), max(-(-len(points) // thread_count()), _BLOCK))
+    # A bitmap per thread: two threads setting bits of one word would lose some.
+    parts = row_blocks(len(points), max(-(-len(points) // thread_count()), _THREAD_POINTS))
     bits = np.zeros((max(len(parts), 1), words), dtype=np.uint64)
 
     def mark(part: int) -> None:
@@ -82,7 +81,7 @@ def column_of(points: np.ndarray, origin: np.ndarray, voxel_size: float, shape: 
     def fill(rows: slice) -> None:
         _columns(points, rows.start, rows.stop, origin, float(voxel_size), nx, ny, column)
 
-    map_blocks(fill, thread_blocks(len(points), _BLOCK))
+    map_blocks(fill, thread_blocks(len(points)))
     return column
 
 
