@@ -13,6 +13,7 @@ import logging
 import os
 import shutil
 import sys
+import warnings
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Callable, Iterator
 
@@ -78,7 +79,12 @@ class TileRunner:
     def _send(self) -> None:
         while self.queue and len(self.futures) < self.in_flight:
             job = self.make_job(*self.queue.pop(0))
-            self.futures.append(self.client.submit(self.run_tile, job, pure=False))
+            # A tile's points travel with its task, by design: made when sent,
+            # a few in flight. Dask warns of every task above 10 MB (a 500 m
+            # tile of 10 points/m² is 80 MB), which would only be noise here.
+            with warnings.catch_warnings():
+                warnings.filterwarnings("ignore", message="Sending large graph", category=UserWarning)
+                self.futures.append(self.client.submit(self.run_tile, job, pure=False))
 
     def run(self, is_cancelled, progress, total: int):
         finished = 0

@@ -1,6 +1,7 @@
 """Tiled runs (core.tiles) give what a single run gives: the same blocks, the
 same per-block volumes, closed and conforming ground and air across tiles."""
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -79,11 +80,18 @@ def test_montpellier_tiled_regions_are_closed_across_tiles(montpellier):
 
 @pytest.mark.slow
 def test_district_tiled_on_two_dask_workers(district):
+    dask = pytest.importorskip("dask")
     pytest.importorskip("dask.distributed")
     params = ReconstructionParams(voxel_size=1.0, extent=district.district.extent)
     single = reconstruct_point_cloud(district.laz, params=params)
-    tiled = reconstruct_point_cloud(district.laz, params=params,
-                                    tiles=TileOptions(tile_size=100.0, workers=2))
+    # Every task carries its tile's points; Dask's warning of large tasks
+    # (here at 1 kB, 10 MB by default) is not passed on to the user.
+    with dask.config.set({"distributed.admin.large-graph-warning-threshold": "1kB"}), \
+            warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        tiled = reconstruct_point_cloud(district.laz, params=params,
+                                        tiles=TileOptions(tile_size=100.0, workers=2))
+    assert not [w for w in caught if "large graph" in str(w.message)]
     assert tiled.stats["workers"] == 2 and tiled.stats["tiles"] == 9
     assert len(tiled.blocks) == len(district.expected_blocks)
     assert_same_blocks(single, tiled)
