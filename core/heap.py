@@ -135,3 +135,14 @@ def reusing_freed_memory() -> Iterator[None]:
                 if _huge_pages is not None:
                     _set_huge_pages(_huge_pages)
                 _LIBC.malloc_trim(0)
+
+
+def give_back() -> None:
+    """Hand the heap's free memory back to the kernel now, inside a run.
+
+    For a step that will not need it soon: the tiled run's own process,
+    once its points are read and sorted, only waits for the workers' pieces
+    while they run (see :func:`core.tiles.reconstruct_tiled`).
+    """
+    if _LIBC is not None:
+        _LIBC.malloc_trim(0)
