@@ -251,6 +251,52 @@ def _check_copy_keys(domain: GridWindow, n_tiles: int) -> None:
             "can number: use larger tiles or voxels, or a smaller extent.")
 
 
+#: Bytes per face of the merged model while :func:`merge_pieces` makes it,
+#: the pieces it consumes included: 120 B on the 2 km city at 1 m (19.0 M
+#: faces), 131 B at 0.5 m (76.4 M faces), with a margin.
+MERGE_BYTES_PER_FACE = 160
+
+
+def check_merge_memory(pieces: list[TilePiece], cores: list[Columns], shape: tuple[int, int, int],
+                       available: int, voxel_size: float) -> int:
+    """Refuse to go on once the tiles done show that their merge will not fit.
+
+    The merged model is the whole domain's: its faces are extrapolated from
+    those the tiles done own, per column of their cores, once they cover a
+    tenth of the domain (the last tile gives the exact count, before the
+    merge allocates). Returns the estimate in bytes (0 before a tenth).
+
+    Examples
+    --------
+    The first of four tiles owns 3 M faces:
+
+    >>> cores = plan_tiles((1000, 1000, 50), 500)
+    >>> piece = TilePiece(0, quads=np.zeros((3_000_000, 4), np.int32))
+    >>> check_merge_memory([piece], cores, (1000, 1000, 50), 8 * 2**30, 1.0)
+    1920000000
+    >>> try:
+    ...     check_merge_memory([piece], cores, (1000, 1000, 50), 2**30, 1.0)
+    ... except UrbanvoxError as error:
+    ...     print(error)
+    The merged model is heading for about 1.2e+07 faces (from 1 tile done out of 4), which need about 1.8 GiB to merge, but only 1.0 GiB is available. Use a voxel size of at least 1.5, or a smaller area.
+    """
+    columns = sum((c[2] - c[0]) * (c[3] - c[1]) for c in (cores[p.index] for p in pieces))
+    total = shape[0] * shape[1]
+    if columns < 0.1 * total:
+        return 0
+    faces = sum(len(p.quads) for p in pieces if p.quads is not None) * total / columns
+    needed = int(faces * MERGE_BYTES_PER_FACE)
+    if needed > available:
+        factor = np.sqrt(needed / available)  # faces scale with 1 / size²
+        suggestion = np.ceil(voxel_size * factor * 1.05 * 10) / 10
+        done = f"{len(pieces)} tile{'s' if len(pieces) > 1 else ''} done out of {len(cores)}"
+        raise UrbanvoxError(
+            f"The merged model is heading for about {faces:.2g} faces (from {done}), which need about "
+            f"{needed / 2**30:.1f} GiB to merge, but only {available / 2**30:.1f} GiB is available. "
+            f"Use a voxel size of at least {suggestion:g}, or a smaller area.")
+    return needed
+
+
 def _per_block(ids: np.ndarray, values: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """Smallest and largest ``values`` of each block (or group) ``1..n`` (ids ``ids``)."""
     lo = np.full(n + 1, np.iinfo(np.int64).max)
@@ -386,9 +432,17 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     crop = _Cropper(ground, building, domain, h)
     level = domain_level.result()
     level = GroundLevel(level.z, repair_height_field(level.top_k), level.observed)
-    nx, ny, _ = domain.shape
+
+    windows = initial_windows(cores, tile, halo, domain, _building_columns(building, level, domain, h))
     workers = max(1, int(options.workers or 1)) if not options.scheduler else None
-    # Several tiles at once share the memory.
+    # The read's chunks and the sorts above leave gigabytes free in this
+    # process's heap (2.3 GB on the 2 km city), kept for reuse by the run;
+    # with workers, nothing here reuses them before the merge, while the
+    # workers' memory adds to it.
+    if workers is None or workers > 1:
+        give_back()
+    # Several tiles at once share the memory; the merge has it all (the
+    # workers are gone by then).
     budget = params.max_memory or available_memory()
     tile_params = replace(params, extent=None, max_memory=int(budget / (workers or 1)))
 
@@ -400,13 +454,6 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
                        GroundLevel(level.z[cut], level.top_k[cut], level.observed[cut]),
                        crs.to_wkt(), tile_params, airborne, halo)
 
-    windows = initial_windows(cores, tile, halo, domain, _building_columns(building, level, domain, h))
-    # The read's chunks and the sorts above leave gigabytes free in this
-    # process's heap (2.3 GB on the 2 km city), kept for reuse by the run;
-    # with workers, nothing here reuses them before the merge, while the
-    # workers' memory adds to it.
-    if options.scheduler or workers > 1:
-        give_back()
     done: list[TilePiece] = []
     regrown = 0
     with TileRunner(options, job, reconstruct_tile) as runner:
@@ -418,6 +465,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
                 runner.submit(piece.index, piece.grow)
             else:
                 done.append(piece)
+                check_merge_memory(done, cores, domain.shape, budget, params.voxel_size)
     done.sort(key=lambda p: p.index)
     grid, table, surface, mesh, measures, columns = merge_pieces(done, domain, h)
     timings: dict[str, float] = {}

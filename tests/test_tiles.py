@@ -1,5 +1,6 @@
 """Tiled runs (core.tiles) give what a single run gives: the same blocks, the
 same per-block volumes, closed and conforming ground and air across tiles."""
+import re
 import sys
 import warnings
 
@@ -106,6 +107,26 @@ def test_a_block_crossing_tiles_is_owned_by_one_tile(district):
     assert tiled.stats["tiles"] >= 9
     assert_same_blocks(single, tiled, rtol=1e-9)
     assert same_nodes(single, tiled) < 1e-9
+
+
+def test_a_merge_too_large_for_memory_is_refused_early(district):
+    # 2 m voxels, 40 m tiles: 83 k faces, about 13 MB to merge; each tile's
+    # grid and faces fit in 11 MB (the largest window has 22 k faces), the merge does not.
+    params = ReconstructionParams(voxel_size=2.0, extent=district.district.extent, project=False,
+                                  max_memory=11 * 2**20)
+    seen = []
+    with pytest.raises(UrbanvoxError, match=r"merged model is heading for about .* faces") as error:
+        reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=40.0),
+                                progress=lambda f, m: seen.append(m))
+    suggested = float(re.search(r"voxel size of at least ([\d.]+)", str(error.value)).group(1))
+    assert suggested > 2.0
+    # Refused once a tenth of the domain is done, not after the 49 tiles.
+    assert sum(m.endswith("done") for m in seen) < 49 // 2
+    # With the memory it needs, the same run goes through.
+    enough = ReconstructionParams(voxel_size=2.0, extent=district.district.extent, project=False,
+                                  max_memory=64 * 2**20)
+    tiled = reconstruct_point_cloud(district.laz, params=enough, tiles=TileOptions(tile_size=40.0))
+    assert len(tiled.surface.quads) * 160 < 64 * 2**20
 
 
 def test_tiles_report_progress_in_order_and_honour_cancel(district):
