@@ -15,8 +15,9 @@ the smoothing's Catmull-Clark step (:mod:`core.smooth_kernel`), the
 elimination's support test (:mod:`core.support_kernel`), the faces between
 regions (:mod:`core.surface_kernel`), the selections
 of moved nodes and the faces around them (:mod:`core.topology_kernel`) and
-the connected parts of the gmsh export (:mod:`core.export_kernel`) and
-the per-block sums of the measures (:mod:`core.measure_kernel`).
+the connected parts of the gmsh export (:mod:`core.export_kernel`),
+the per-block sums of the measures (:mod:`core.measure_kernel`) and the
+reader's sorting of a LAS chunk's points (:mod:`core.las_kernel`).
 numba compiles such loops; the issue that asked for speed allows a compiled
 kernel only where numpy cannot reach the target, and only with the same
 results.
@@ -46,7 +47,9 @@ from types import ModuleType
 from .errors import Cancelled
 
 #: The kernel modules of core, each with a ``warm_up()`` (see :func:`warm_up`).
-KERNELS = ("blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
+#: The reader's comes first: :func:`preload` loads them in this order while
+#: a file is read, and the reader uses its own once it is loaded.
+KERNELS = ("las_kernel", "blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
            "manifold_kernel", "measure_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel",
            "smooth_kernel", "support_kernel", "surface_kernel", "topology_kernel")
 
@@ -117,6 +120,20 @@ def kernels(name: str, size: int | None = None) -> ModuleType | None:
             finally:
                 numba.config.CACHE_DIR = saved
         return _loaded[name]
+
+
+def ready(name: str) -> bool:
+    """Whether the kernel module ``core.<name>`` is loaded in this process
+    already (by :func:`preload` or an earlier call): for a step that may run
+    either way, its numpy code giving the same results, without waiting for
+    a load.
+
+    Examples
+    --------
+    >>> ready("no_such_kernel")
+    False
+    """
+    return enabled() and _loaded.get(name) is not None
 
 
 def _any_loaded() -> bool:

@@ -22,6 +22,19 @@ from core.readers import las as las_module
 from core.readers.las import parse_classes, read_point_clouds
 from core.readers.mesh import MESH_SUFFIXES, Triangles, base_points, edge_counts, read_triangles
 
+@pytest.fixture(params=["numpy", "compiled"], autouse=True)
+def chunk_sorting(request, monkeypatch, compiled):
+    """Every test reads with numpy's sorting of the chunks and with the kernel's."""
+    from core import jit
+
+    if request.param == "numpy":
+        monkeypatch.setattr(jit, "ready", lambda name: False)
+    else:
+        compiled("las_kernel")
+        monkeypatch.setattr(jit, "ready", lambda name: True)
+    return request.param
+
+
 def data_file(shared_data: Path, relative: str) -> Path:
     """A file of the real test data (fixture ``shared_data`` of conftest.py); skip if absent."""
     path = shared_data / relative
@@ -288,6 +301,31 @@ def test_withheld_points_dropped(tmp_path):
     pts = read_point_clouds(write_las(tmp_path / "w.las", xyz, classes, crs="EPSG:28992", withheld=withheld))
     assert len(pts.ground) == (classes == 2).sum() - 5
     assert any("withheld" in w for w in pts.warnings)
+
+
+@pytest.mark.parametrize("version, fmt", [("1.2", 1), ("1.4", 6)])
+def test_compiled_chunks_give_numpy_rows_bit_for_bit(tmp_path, monkeypatch, version, fmt):
+    from core import jit
+
+    rng = np.random.default_rng(3)
+    n = 5000
+    xyz = rng.random((n, 3)) * (900.0, 700.0, 40.0) + (85000.123, 447000.456, -3.2)
+    classes = rng.choice([1, 2, 5, 6, 9, 17], n)
+    withheld = (rng.random(n) < 0.05).astype(np.uint8)
+    path = write_las(tmp_path / "r.laz", xyz, classes, crs="EPSG:28992", version=version, point_format=fmt,
+                     withheld=withheld)
+    monkeypatch.setattr(las_module, "CHUNK_POINTS", 777)  # chunks of every size, the last one short
+    read = {}
+    for name, ready in (("numpy", lambda name: False), ("compiled", lambda name: True)):
+        monkeypatch.setattr(jit, "ready", ready)
+        read[name] = read_point_clouds(path, "2,9", "6")
+    a, b = read["numpy"], read["compiled"]
+    assert a.ground.tobytes() == b.ground.tobytes() and a.building.tobytes() == b.building.tobytes()
+    assert a.class_counts == b.class_counts and a.warnings == b.warnings and a.n_points == b.n_points == n
+    kept = withheld == 0
+    assert len(b.ground) == (np.isin(classes, [2, 9]) & kept).sum() > 0
+    assert len(b.building) == ((classes == 6) & kept).sum() > 0
+    np.testing.assert_allclose(b.building, xyz[(classes == 6) & kept], atol=1e-3)
 
 
 def test_chunked_reading_and_cancel(tmp_path, monkeypatch):

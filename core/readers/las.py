@@ -34,9 +34,11 @@ import laspy
 import numpy as np
 import pyproj
 
+from .. import jit
 from ..crs import describe_crs, horizontal_crs, resolve_crs
 from ..errors import Cancelled, UrbanvoxError
 from ..heap import reusing_freed_memory
+from ..las_kernel import kinds as las_kinds
 from ..vectors import all_finite, finite_rows
 
 __all__ = ["LabelledPoints", "parse_classes", "read_point_clouds", "CLASS_NAMES", "CHUNK_POINTS"]
@@ -251,13 +253,18 @@ class _Rows:
         self.table = np.empty((most, 3), dtype=np.float64)
         self.n = 0
 
-    def next(self, count: int) -> np.ndarray:
-        """The next ``count`` rows, to be written."""
+    def room(self, count: int) -> np.ndarray:
+        """The rows after the last written, at least ``count`` of them; :meth:`next`
+        gives them as written."""
         if self.n + count > len(self.table):  # a header that counts fewer points than its file holds
             grown = np.empty((max(2 * len(self.table), self.n + count), 3), dtype=np.float64)
             grown[:self.n] = self.table[:self.n]
             self.table = grown
-        rows = self.table[self.n:self.n + count]
+        return self.table[self.n:]
+
+    def next(self, count: int) -> np.ndarray:
+        """The next ``count`` rows, to be written."""
+        rows = self.room(count)[:count]
         self.n += count
         return rows
 
@@ -275,6 +282,30 @@ class _Rows:
         return table
 
 
+def field_bits(field) -> Tuple[np.ndarray, int, int]:
+    """A point field as the bytes that hold it, its bit mask and its shift.
+
+    laspy gives a field that shares its byte with others (the withheld flag;
+    the class code in point formats 0-5) as a ``SubFieldView`` of that byte;
+    the compiled reader (:mod:`core.las_kernel`) takes the byte and the bits
+    rather than a new array of the values.
+
+    Examples
+    --------
+    >>> from laspy.point.dims import SubFieldView
+    >>> bits = field_bits(SubFieldView(np.array([0b10100011], np.uint8), 0b00011111))
+    >>> bits[0].tolist(), bits[1:]
+    ([163], (31, 0))
+    >>> field_bits(np.array([6, 2], np.uint8))[1:]
+    (255, 0)
+    """
+    from laspy.point.dims import SubFieldView
+
+    if isinstance(field, SubFieldView) and field.array.dtype == np.uint8:
+        return field.array, int(field.bit_mask), int(field.lsb)
+    return np.asarray(field, dtype=np.uint8), 0xFF, 0
+
+
 def _read_file(
     reader: "laspy.LasReader",
     path: str,
@@ -289,30 +320,51 @@ def _read_file(
     header = reader.header
     scales = np.asarray(header.scales, dtype=np.float64)
     offsets = np.asarray(header.offsets, dtype=np.float64)
+    kind = las_kinds(ground_codes, building_codes)
+    # x * scale + offset of an int32 x is finite for every x when the largest
+    # magnitude it can reach is: then no chunk needs a look for NaN or inf.
+    may_be_non_finite = not np.isfinite(2.0**31 * np.abs(scales) + np.abs(offsets)).all()
     n_read = n_bad = n_withheld = 0
     try:
         for chunk in reader.chunk_iterator(CHUNK_POINTS):
             if is_cancelled is not None and is_cancelled():
                 raise Cancelled()
-            cls = np.asarray(chunk.classification, dtype=np.uint8)
-            counts += np.bincount(cls, minlength=256)
-            n_read += len(cls)
-            # Withheld points are to be deleted per the LAS spec (they stay counted above).
-            keep = np.asarray(chunk.withheld, dtype=bool)
-            n_withheld += int(keep.sum())
-            keep = ~keep
-            is_ground = np.isin(cls, ground_codes) & keep
-            is_building = np.isin(cls, building_codes) & keep
-            for mask, rows in ((is_ground, ground_rows), (is_building, building_rows)):
-                if not mask.any():
-                    continue
-                # Scale only the kept points; float64 keeps the header's precision.
-                xyz = rows.next(int(mask.sum()))
-                # compress: 2.5 times faster than indexing with a mask (core.vectors).
-                xyz[:, 0] = np.asarray(chunk.X).compress(mask) * scales[0] + offsets[0]
-                xyz[:, 1] = np.asarray(chunk.Y).compress(mask) * scales[1] + offsets[1]
-                xyz[:, 2] = np.asarray(chunk.Z).compress(mask) * scales[2] + offsets[2]
-                if not all_finite(xyz):
+            n_read += len(chunk)
+            # Compiled where the kernels are loaded already (read_point_clouds
+            # starts loading them): the same rows, in one pass.
+            written = None
+            if jit.ready("las_kernel"):
+                chunk_counts = np.zeros(256, dtype=np.int64)
+                flags, withheld_mask, _ = field_bits(chunk.withheld)  # a flag: no shift to undo
+                written = jit.run("las_kernel", "split_chunk", np.asarray(chunk.X), np.asarray(chunk.Y),
+                                  np.asarray(chunk.Z), *field_bits(chunk.classification), flags, withheld_mask,
+                                  kind, scales, offsets, chunk_counts,
+                                  ground_rows.room(len(chunk)), building_rows.room(len(chunk)))
+            if written is not None:
+                n_ground, n_building, withheld_here = written
+                counts += chunk_counts
+                n_withheld += withheld_here
+                new_rows = [(ground_rows.next(n_ground), ground_rows),
+                            (building_rows.next(n_building), building_rows)]
+            else:
+                cls = np.asarray(chunk.classification, dtype=np.uint8)
+                counts += np.bincount(cls, minlength=256)
+                # Withheld points are to be deleted per the LAS spec (they stay counted).
+                withheld = np.asarray(chunk.withheld, dtype=bool)
+                n_withheld += int(withheld.sum())
+                keep = ~withheld
+                new_rows = []
+                for mask, rows in ((np.isin(cls, ground_codes) & keep, ground_rows),
+                                   (np.isin(cls, building_codes) & keep, building_rows)):
+                    # Scale only the kept points; float64 keeps the header's precision.
+                    xyz = rows.next(int(mask.sum()))
+                    # compress: 2.5 times faster than indexing with a mask (core.vectors).
+                    xyz[:, 0] = np.asarray(chunk.X).compress(mask) * scales[0] + offsets[0]
+                    xyz[:, 1] = np.asarray(chunk.Y).compress(mask) * scales[1] + offsets[1]
+                    xyz[:, 2] = np.asarray(chunk.Z).compress(mask) * scales[2] + offsets[2]
+                    new_rows.append((xyz, rows))
+            for xyz, rows in new_rows:
+                if may_be_non_finite and len(xyz) and not all_finite(xyz):
                     finite = finite_rows(xyz)
                     n_bad += int((~finite).sum())
                     rows.keep_last(finite)
@@ -393,7 +445,10 @@ def read_point_clouds(
             most += int(reader.header.point_count)
     resolved = _collection_crs(files, header_crss, crs, warnings)
 
-    # Pass 2: stream the points.
+    # Pass 2: stream the points. The compiled kernels load meanwhile when the
+    # run will want them (core.jit.preload); the reader's own runs from the
+    # chunk after it is loaded.
+    jit.preload(most)
     counts = np.zeros(256, dtype=np.int64)
     ground_rows, building_rows = _Rows(most), _Rows(most)
     g_codes = np.asarray(ground, dtype=np.uint8)
