@@ -42,7 +42,7 @@ import numpy as np
 
 from .blocks import BlockTable
 from .errors import UrbanvoxError
-from .grid import GridWindow, available_memory
+from .grid import BIN_CHUNK, GridWindow, available_memory
 from .heap import give_back
 from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
@@ -609,6 +609,14 @@ def _column(x: np.ndarray, lower: float, h: float, n: int) -> np.ndarray:
     16-bit integers is a radix sort, seven times faster (the cropper's sort
     of 50 M points took 2.5 s), and the same order.
     """
-    column = np.floor((x - lower) / h)
-    np.clip(column, 0, n - 1, out=column)
-    return column.astype(np.uint16 if n < 2**16 - 1 else np.int32)
+    out = np.empty(len(x), dtype=np.uint16 if n < 2**16 - 1 else np.int32)
+    # A chunk at a time: the temporaries stay in the cache instead of
+    # faulting in fresh pages for every point (0.23 -> 0.07 s for the 2 km
+    # city's 35 M ground points).
+    for start in range(0, len(x), BIN_CHUNK):
+        column = x[start:start + BIN_CHUNK] - lower
+        column /= h
+        np.floor(column, out=column)
+        np.clip(column, 0, n - 1, out=column)
+        out[start:start + len(column)] = column
+    return out
