@@ -126,13 +126,8 @@ class CatmullClarkStep:
         faces = faces.reshape(quads.shape)  # numbered by their row among self.nodes
         size = len(self.nodes)
         m = len(faces)
-        # Each undirected edge once.
-        tail = faces.ravel()
-        head = np.roll(faces, -1, axis=1).ravel()
-        key = sorted_unique(np.minimum(tail, head).astype(np.int64) * size + np.maximum(tail, head))
-        ends = np.column_stack([key // size, key % size]).ravel()
-        e = len(key)
-        del tail, head, key
+        ends = undirected_edges(faces, size)
+        e = len(ends) // 2
         # CSC from the tables directly: column j holds the nodes of face (edge) j.
         self._faces = sparse.csc_matrix((np.full(4 * m, 0.25), faces.ravel(), np.arange(0, 4 * m + 1, 4)),
                                         shape=(size, m))
@@ -169,6 +164,25 @@ class CatmullClarkStep:
         face_sum = self._faces @ (self._faces.T @ p)
         edge_sum = self._edges @ (self._edges.T @ p)
         return self._face_weight * face_sum + self._edge_weight * edge_sum + self._own_weight * p
+
+
+def undirected_edges(faces: np.ndarray, size: int) -> np.ndarray:
+    """Each undirected edge of ``faces`` once, as its two ends, the lower
+    first, ordered by lower end then upper end, flat: ``[a0, b0, a1, b1, ...]``.
+
+    Examples
+    --------
+    >>> undirected_edges(np.array([[0, 1, 2, 3], [1, 4, 5, 2]]), 6).reshape(-1, 2).tolist()
+    [[0, 1], [0, 3], [1, 2], [1, 4], [2, 3], [2, 5], [4, 5]]
+    """
+    # One compiled pass, the same rows (core.smooth_kernel).
+    ends = jit.run("smooth_kernel", "undirected_edges", faces, size, size=len(faces))
+    if ends is not None:
+        return ends
+    tail = faces.ravel()
+    head = np.roll(faces, -1, axis=1).ravel()
+    key = sorted_unique(np.minimum(tail, head).astype(np.int64) * size + np.maximum(tail, head))
+    return np.column_stack([key // size, key % size]).ravel()
 
 
 def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: float = 0.2,

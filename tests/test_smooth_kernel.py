@@ -79,3 +79,24 @@ def test_node_roles_are_numpys(monkeypatch, kernel, seed):
         assert np.array_equal(getattr(got, name), getattr(expected, name)), name
     assert expected.foot.any() and expected.fixed_axes.any() and expected.movable.any()
     assert not expected.movable.all() and (expected.fixed_axes.sum(axis=1) == 1).any()
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_edge_table_is_numpys(monkeypatch, kernel, seed):
+    from core import jit, smooth
+
+    model, _, rng = shaken_blocks(seed)
+    # A block surface's faces, numbered from 0 as CatmullClarkStep numbers them, and
+    # random faces with repeated corners, faces given twice and unused nodes.
+    _, faces = smooth.unique_nodes(model.quads, len(model.nodes))
+    cases = [(faces.reshape(-1, 4), int(faces.max()) + 1),
+             (rng.integers(0, 50, (400, 4)).astype(np.int32), 60)]
+    for faces, size in cases:
+        faces = np.concatenate([faces, faces[:7]])
+        compiled_ends = kernel.undirected_edges(faces, size)
+        monkeypatch.setattr(jit, "run", lambda *args, **kwargs: None)
+        numpy_ends = smooth.undirected_edges(faces, size)
+        monkeypatch.undo()
+        assert numpy_ends.dtype == compiled_ends.dtype and np.array_equal(numpy_ends, compiled_ends)
+        pairs = numpy_ends.reshape(-1, 2)
+        assert (pairs[:, 0] <= pairs[:, 1]).all() and len(np.unique(pairs, axis=0)) == len(pairs)
