@@ -18,23 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import compiled
-
-#: What a class code's points are: kept as ground, as building, or not kept.
-NOT_KEPT, GROUND, BUILDING = 0, 1, 2
-
-
-def kinds(ground_codes: np.ndarray, building_codes: np.ndarray) -> np.ndarray:
-    """A table of 256 entries: the kind of the points of each class code.
-
-    Examples
-    --------
-    >>> kinds(np.array([2]), np.array([6, 7]))[[1, 2, 6, 7]].tolist()
-    [0, 1, 2, 2]
-    """
-    table = np.full(256, NOT_KEPT, dtype=np.uint8)
-    table[np.asarray(building_codes, dtype=np.uint8)] = BUILDING
-    table[np.asarray(ground_codes, dtype=np.uint8)] = GROUND
-    return table
+from .readers.las import BUILDING, GROUND, point_kinds
 
 
 @compiled
@@ -53,7 +37,7 @@ def split_chunk(x, y, z, classes, class_mask, class_shift, flags, withheld_mask,
     flags, withheld_mask : ndarray of uint8, int
         The bytes that hold the withheld flag, and its bit.
     kind : ndarray of uint8 (256,)
-        :func:`kinds`.
+        :func:`core.readers.las.point_kinds`.
     scales, offsets : ndarray of float64 (3,)
         The header's.
     counts : ndarray of int64 (256,)
@@ -98,7 +82,7 @@ def warm_up() -> int:
     record = np.zeros(4, dtype=[("X", "<i4"), ("Y", "<i4"), ("Z", "<i4"), ("classification", "u1"),
                                 ("flags", "u1")])
     record["X"], record["classification"], record["flags"] = [1, 2, 3, 4], [2, 6, 1, 2], [0, 0, 0, 8]
-    kind = kinds(np.array([2]), np.array([6]))
+    kind = point_kinds(np.array([2]), np.array([6]))
     ground, building, counts = np.zeros((4, 3)), np.zeros((4, 3)), np.zeros(256, np.int64)
     written = split_chunk(record["X"], record["Y"], record["Z"], record["classification"], 0xFF, 0,
                           record["flags"], 8, kind, np.full(3, 0.5), np.ones(3), counts, ground, building)

@@ -1,11 +1,16 @@
 """Optional compiled kernels (core.jit): switched off, failing, cached, and
 the pipeline's model the same with them or without."""
 import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from core import jit
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture
@@ -128,3 +133,16 @@ def test_a_failing_point_index_falls_back_to_a_kd_tree(compiled, monkeypatch):
     assert np.array_equal(found[0], expected[0]) and np.array_equal(found[1], expected[1])
     assert isinstance(index.fallback, neighbours.cKDTree)
     assert neighbours.point_index(data, 1.0) is not index and jit.kernels("neighbours_kernel") is None
+
+
+def test_importing_core_does_not_import_numba():
+    # QGIS loads the provider without numba (and a Processing run may never
+    # want a kernel); a kernel module imports it when first wanted (jit.kernels).
+    code = ("import importlib, pkgutil, sys, core\n"
+            "for module in pkgutil.walk_packages(core.__path__, 'core.'):\n"
+            "    if not module.name.endswith(('_kernel', '__main__')):\n"
+            "        importlib.import_module(module.name)\n"
+            "print(len(sys.modules), 'numba' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True).stdout
+    count, numba_loaded = out.split()
+    assert int(count) > 100 and numba_loaded == "False"

@@ -38,7 +38,6 @@ from .. import jit
 from ..crs import describe_crs, horizontal_crs, resolve_crs
 from ..errors import Cancelled, UrbanvoxError
 from ..heap import reusing_freed_memory
-from ..las_kernel import kinds as las_kinds
 from ..vectors import all_finite, finite_rows
 
 __all__ = ["LabelledPoints", "parse_classes", "read_point_clouds", "CLASS_NAMES", "CHUNK_POINTS"]
@@ -282,6 +281,24 @@ class _Rows:
         return table
 
 
+#: What a class code's points are: kept as ground, as building, or not kept.
+NOT_KEPT, GROUND, BUILDING = 0, 1, 2
+
+
+def point_kinds(ground_codes: np.ndarray, building_codes: np.ndarray) -> np.ndarray:
+    """A table of 256 entries: what the points of each class code are.
+
+    Examples
+    --------
+    >>> point_kinds(np.array([2]), np.array([6, 7]))[[1, 2, 6, 7]].tolist()
+    [0, 1, 2, 2]
+    """
+    table = np.full(256, NOT_KEPT, dtype=np.uint8)
+    table[np.asarray(building_codes, dtype=np.uint8)] = BUILDING
+    table[np.asarray(ground_codes, dtype=np.uint8)] = GROUND
+    return table
+
+
 def field_bits(field) -> Tuple[np.ndarray, int, int]:
     """A point field as the bytes that hold it, its bit mask and its shift.
 
@@ -320,7 +337,7 @@ def _read_file(
     header = reader.header
     scales = np.asarray(header.scales, dtype=np.float64)
     offsets = np.asarray(header.offsets, dtype=np.float64)
-    kind = las_kinds(ground_codes, building_codes)
+    kind = point_kinds(ground_codes, building_codes)
     # x * scale + offset of an int32 x is finite for every x when the largest
     # magnitude it can reach is: then no chunk needs a look for NaN or inf.
     may_be_non_finite = not np.isfinite(2.0**31 * np.abs(scales) + np.abs(offsets)).all()
