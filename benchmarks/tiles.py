@@ -7,7 +7,8 @@ Run from the repository root with the project's venv::
 
 Each run is ``python -m core CITY.laz --tile-size T --workers W`` in its own process; the peak
 memory is the largest sum of resident memory over that process and its Dask workers, polled
-every 0.2 s. The synthetic city is generated once into the benchmarks' cache folder (as
+every 0.2 s. Each run's stages (grid, ground, classify, blocks, eliminate, surface, smooth,
+project, measure) are printed summed over its tiles. The synthetic city is generated once into the benchmarks' cache folder (as
 ``python -m benchmarks city`` does). Block counts and total volumes of every run are printed
 beside each other: they must be equal.
 """
@@ -46,10 +47,15 @@ def run(path: Path, voxel: float, tile: float, workers: int, report: Path) -> di
     if child.returncode != 0:
         return {"workers": workers, "failed": child.returncode, "stderr": err[-2000:]}
     doc = json.loads(report.read_text())
+    timings = doc["summary"]["timings"]
     return {"workers": workers, "wall_s": wall, "peak_rss_mb": peak / 2**20,
             "blocks": doc["summary"]["block_count"], "total_volume": doc["summary"]["total_volume"],
             "tiles": doc["stats"].get("tiles"), "tiles_rerun": doc["stats"].get("tiles_rerun"),
-            "core_s": sum(v for k, v in doc["summary"]["timings"].items() if k != "tiles_wall")}
+            "core_s": sum(v for k, v in timings.items() if k != "tiles_wall"),
+            # The stages summed over the tiles (their halos and reruns included); the
+            # tiled part's wall time; the reconstruction's, reading included.
+            "stages_s": {k: v for k, v in timings.items() if k != "tiles_wall"},
+            "tiles_wall_s": timings.get("tiles_wall"), "run_s": doc["seconds"]}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -76,6 +82,10 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             print(f"  {workers:>7} {r['wall_s']:8.1f} {r['core_s']:8.1f} {r['peak_rss_mb']:12.0f} {r['blocks']:7d} "
                   f"{r['total_volume']:14.1f} {r['tiles']} ({r['tiles_rerun']} rerun)", flush=True)
+            stages = ", ".join(f"{k} {v:.1f}" for k, v in r["stages_s"].items())
+            print(f"          stages summed over the tiles (s): {stages}", flush=True)
+            print(f"          the tiled part (ground level, sort by column, tiles, merge) {r['tiles_wall_s']:.1f} s "
+                  f"of the reconstruction's {r['run_s']:.1f} s (the rest: reading, the clusters' test)", flush=True)
     if args.json:
         args.json.write_text(json.dumps({"size_m": args.size, "voxel": args.voxel, "tile_size": args.tile_size,
                                          "fresh_memory_ms_per_mb": fresh, "runs": rows}, indent=1))
