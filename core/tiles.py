@@ -257,39 +257,37 @@ def _check_copy_keys(domain: GridWindow, n_tiles: int) -> None:
 MERGE_BYTES_PER_FACE = 160
 
 
-def check_merge_memory(pieces: list[TilePiece], cores: list[Columns], shape: tuple[int, int, int],
+def check_merge_memory(faces: int, columns: int, tiles_done: int, n_tiles: int, shape: tuple[int, int, int],
                        available: int, voxel_size: float) -> int:
     """Refuse to go on once the tiles done show that their merge will not fit.
 
     The merged model is the whole domain's: its faces are extrapolated from
-    those the tiles done own, per column of their cores, once they cover a
-    tenth of the domain (the last tile gives the exact count, before the
-    merge allocates). Returns the estimate in bytes (0 before a tenth).
+    the ``faces`` the tiles done own, per column of their cores (``columns``
+    in all), once they cover a tenth of the domain (the last tile gives the
+    exact count, before the merge allocates). Returns the estimate in bytes
+    (0 before a tenth).
 
     Examples
     --------
     The first of four tiles owns 3 M faces:
 
-    >>> cores = plan_tiles((1000, 1000, 50), 500)
-    >>> piece = TilePiece(0, quads=np.zeros((3_000_000, 4), np.int32))
-    >>> check_merge_memory([piece], cores, (1000, 1000, 50), 8 * 2**30, 1.0)
+    >>> check_merge_memory(3_000_000, 500 * 500, 1, 4, (1000, 1000, 50), 8 * 2**30, 1.0)
     1920000000
     >>> try:
-    ...     check_merge_memory([piece], cores, (1000, 1000, 50), 2**30, 1.0)
+    ...     check_merge_memory(3_000_000, 500 * 500, 1, 4, (1000, 1000, 50), 2**30, 1.0)
     ... except UrbanvoxError as error:
     ...     print(error)
     The merged model is heading for about 1.2e+07 faces (from 1 tile done out of 4), which need about 1.8 GiB to merge, but only 1.0 GiB is available. Use a voxel size of at least 1.5, or a smaller area.
     """
-    columns = sum((c[2] - c[0]) * (c[3] - c[1]) for c in (cores[p.index] for p in pieces))
     total = shape[0] * shape[1]
     if columns < 0.1 * total:
         return 0
-    faces = sum(len(p.quads) for p in pieces if p.quads is not None) * total / columns
+    faces = faces * total / columns
     needed = int(faces * MERGE_BYTES_PER_FACE)
     if needed > available:
         factor = np.sqrt(needed / available)  # faces scale with 1 / size²
         suggestion = np.ceil(voxel_size * factor * 1.05 * 10) / 10
-        done = f"{len(pieces)} tile{'s' if len(pieces) > 1 else ''} done out of {len(cores)}"
+        done = f"{tiles_done} tile{'s' if tiles_done > 1 else ''} done out of {n_tiles}"
         raise UrbanvoxError(
             f"The merged model is heading for about {faces:.2g} faces (from {done}), which need about "
             f"{needed / 2**30:.1f} GiB to merge, but only {available / 2**30:.1f} GiB is available. "
@@ -456,6 +454,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
 
     done: list[TilePiece] = []
     regrown = 0
+    done_faces = done_columns = 0  # what the pieces so far own, for the merge's memory
     with TileRunner(options, job, reconstruct_tile) as runner:
         for n, window in enumerate(windows):
             runner.submit(n, window)
@@ -465,7 +464,11 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
                 runner.submit(piece.index, piece.grow)
             else:
                 done.append(piece)
-                check_merge_memory(done, cores, domain.shape, budget, params.voxel_size)
+                ci0, cj0, ci1, cj1 = cores[piece.index]
+                done_columns += (ci1 - ci0) * (cj1 - cj0)
+                done_faces += 0 if piece.quads is None else len(piece.quads)
+                check_merge_memory(done_faces, done_columns, len(done), len(cores), domain.shape, budget,
+                                   params.voxel_size)
     done.sort(key=lambda p: p.index)
     grid, table, surface, mesh, measures, columns = merge_pieces(done, domain, h)
     timings: dict[str, float] = {}
