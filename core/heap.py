@@ -134,7 +134,7 @@ def reusing_freed_memory() -> Iterator[None]:
                 _LIBC.mallopt(_M_TRIM_THRESHOLD, _DEFAULT_TRIM)
                 if _huge_pages is not None:
                     _set_huge_pages(_huge_pages)
-                _LIBC.malloc_trim(0)
+                give_back()
 
 
 def give_back() -> None:
