@@ -201,8 +201,8 @@ def test_mesh_input_tiled_equals_single(district):
 def test_merge_keys_that_would_overflow_are_refused():
     # The merge numbers node copies by lattice node x 2 tiles + rank in 64 bits;
     # a domain whose numbers would wrap is refused (before its tiles run).
-    from core.tiles import _check_copy_keys
+    from core.tile_merge import check_copy_keys
 
-    _check_copy_keys(GridWindow(np.zeros(3), (2000, 2000, 300)), 25)  # the 2 km city
+    check_copy_keys(GridWindow(np.zeros(3), (2000, 2000, 300)), 25)  # the 2 km city
     with pytest.raises(UrbanvoxError, match="larger tiles"):
-        _check_copy_keys(GridWindow(np.zeros(3), (10**7, 10**7, 1000)), 10**6)
+        check_copy_keys(GridWindow(np.zeros(3), (10**7, 10**7, 1000)), 10**6)
