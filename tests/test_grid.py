@@ -36,8 +36,9 @@ def grid_around(points: np.ndarray, h: float) -> VoxelGrid:
 @pytest.mark.parametrize("h", [1.0, 0.5, 0.3, 2.0])
 @pytest.mark.parametrize("chunk,threads", [(7, "1"), (1000, "3"), (1 << 16, "2")])
 def test_random_points_match_unique(h, chunk, threads, monkeypatch):
-    # Threads: the kernel's bitmaps, one per thread, merged.
+    # Threads: the kernel's bitmaps, one per thread (of 1000 points or more here), merged.
     monkeypatch.setenv("URBANVOX_THREADS", threads)
+    monkeypatch.setattr("core.grid_kernel._THREAD_POINTS", 1000)
     rng = np.random.default_rng(int(h * 10) + chunk)
     points = rng.random((20_000, 3)) * np.array([60.0, 40.0, 25.0])
     grid = grid_around(points, h)
@@ -63,6 +64,21 @@ def test_voxels_at_every_place_of_a_bitmap_word_are_listed():
         ijk = np.column_stack([np.asarray(number) % 7, (np.asarray(number) // 7) % 11, np.asarray(number) // 77])
         points = ijk + 0.5
         np.testing.assert_array_equal(grid.occupied_cells(points), ijk[np.argsort(number)])
+
+
+def test_bitmaps_written_in_different_words_by_each_thread_merge_to_np_unique(monkeypatch):
+    """The kernel's threads write only some words of their bitmaps (the
+    others are never zeroed): cells seen by one thread, by several, in runs
+    along x and alone, over words and summary words written by one thread only."""
+    monkeypatch.setenv("URBANVOX_THREADS", "3")
+    monkeypatch.setattr("core.grid_kernel._THREAD_POINTS", 50)
+    grid = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (130, 9, 7))
+    rng = np.random.default_rng(11)
+    runs = np.column_stack([np.arange(0, 130), np.full(130, 4), np.full(130, 2)]) + 0.5
+    alone = rng.random((400, 3)) * np.array(grid.shape)
+    for points in (np.concatenate([runs, alone]), np.concatenate([alone[:100], runs[::7], alone[100:], runs[3::5]]),
+                   np.tile([[129.5, 8.5, 6.5], [0.5, 0.5, 0.5]], (200, 1))):
+        np.testing.assert_array_equal(grid.occupied_cells(points), unique_cells(grid, points))
 
 
 def test_columns_are_those_of_cell_of_on_boundaries_and_outside_the_grid():
