@@ -72,9 +72,11 @@ def occupied_cells(points: np.ndarray, origin: np.ndarray, voxel_size: float,
         _mark(points, rows.start, rows.stop, origin, float(voxel_size), nx, ny, nz, bits[part], written[part])
 
     map_blocks(mark, range(len(parts)))
+    # As many cells as points at most, and a summary word per 4096 voxels:
+    # few points are listed on this thread, where the pool's handoffs cost more.
+    summaries = thread_blocks(written.shape[1]) if len(parts) > 1 else [slice(0, written.shape[1])]
     return counted_then_listed(lambda summary, out, at: _listed_into(bits, written, summary.start, summary.stop,
-                                                                     nx, ny, out, at),
-                               thread_blocks(written.shape[1])).reshape(-1, 3)
+                                                                     nx, ny, out, at), summaries).reshape(-1, 3)
 
 
 def column_of(points: np.ndarray, origin: np.ndarray, voxel_size: float, shape: tuple[int, int, int]) -> np.ndarray:
