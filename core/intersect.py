@@ -398,7 +398,8 @@ def _edges_cross(edges_of: list[Vector], faces: list[Vector]) -> np.ndarray:
 
 def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: np.ndarray,
                    max_rounds: int = 20, chunk: int = 20_000,
-                   is_cancelled: Callable[[], bool] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+                   is_cancelled: Callable[[], bool] | None = None,
+                   overwrite_new: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
     """Undo moves until no moved triangle crosses another.
 
     Each quad is split along its best diagonal (:func:`core.quality.best_diagonal`)
@@ -417,13 +418,16 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         Every face of the model.
     chunk : int
         Quads searched at a time (bounds the memory of the pair lists).
+    overwrite_new : bool
+        The moves are undone in ``new``, which is returned, instead of in a copy
+        (as :func:`core.quality.accept_moves`).
 
     Returns
     -------
     positions, moved, undone
         Updated positions and mask, and how many moves were undone.
     """
-    positions = new.copy()
+    positions = new if overwrite_new else new.copy()
     moved = moved.copy()
     undone = 0
     near = None  # after a round, only the neighbourhood of what was undone can still cross
@@ -448,12 +452,13 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         culprits = culprits[moved[culprits]]
         if len(culprits) == 0:
             break  # crossings not caused by these moves
+        moved_to = positions[culprits]  # new[culprits], which may be positions itself
         positions[culprits] = old[culprits]
         moved[culprits] = False
         undone += len(culprits)
         span = 4 * np.linalg.norm(np.ptp(positions[quads[0]], axis=0))  # a few faces around
-        near = (np.minimum(old[culprits], new[culprits]).min(axis=0) - span,
-                np.maximum(old[culprits], new[culprits]).max(axis=0) + span)
+        near = (np.minimum(old[culprits], moved_to).min(axis=0) - span,
+                np.maximum(old[culprits], moved_to).max(axis=0) + span)
         reverted = np.zeros(len(old), dtype=bool)
         reverted[culprits] = True
         touched = np.flatnonzero(touching(reverted, quads))

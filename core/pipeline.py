@@ -325,7 +325,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
 
     report(0.7, "Conforming surfaces")
     columns = block_columns(blocks, int(table.block_id.max()) if len(table) else 0)
-    regions = region_volume(labels, blocks)
+    regions = region_volume(labels, blocks, overwrite_blocks=True)
     del labels, blocks  # before the surface's own grid-sized tables are made
     surface = SurfaceModel.from_regions(grid, regions)
     del regions

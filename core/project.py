@@ -296,12 +296,14 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     proposal = nodes.copy()
     proposal[idx_nodes] = np.where(fixed_axes, p, target)
     wanted = changed_rows(proposal, nodes)
-    result, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled)
+    result, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled,
+                                overwrite_new=True)
+    del proposal
     # A node pushed along its normal may cross a face of a thin neighbouring part.
     stats["crossing"] = 0
     if check_crossings:
         result, kept, stats["crossing"] = undo_crossings(nodes, result, kept & wanted, model.quads,
-                                                         is_cancelled=is_cancelled)
+                                                         is_cancelled=is_cancelled, overwrite_new=True)
     stats["projected"] = int((wanted & kept).sum())
     stats["refused"] = int((wanted & ~kept).sum())
     return result, stats

@@ -229,12 +229,13 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     for _ in range(passes):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        target = blocks.into(nodes.copy(), nodes, from_blocks)
-        target = ground.into(target, nodes, from_ground)
-        proposal = np.where(keep, nodes, target)
+        proposal = blocks.into(nodes.copy(), nodes, from_blocks)
+        proposal = ground.into(proposal, nodes, from_ground)
+        np.copyto(proposal, nodes, where=keep)
         wanted = changed_rows(proposal, nodes)
         nodes, kept = accept_moves(nodes, proposal, model.quads, threshold, is_cancelled=is_cancelled,
-                                   state=faces)
+                                   state=faces, overwrite_new=True)
+        del proposal
         stats["moved"].append(int(kept.sum()))
         stats["refused"].append(int((wanted & ~kept).sum()))
     return nodes, stats

