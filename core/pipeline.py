@@ -270,16 +270,16 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     # The searches over the points (one over the building points serves the
     # elimination, the projection and the distances measured at the end; one
     # over the ground points those distances) are built on a thread of their
-    # own while the voxel steps run, which mostly use one core: 1.4 s of
-    # KD-tree builds on the 1 km city. They hold these arrays, not copies of
-    # them: nothing below writes to them. With numba both get a compiled
-    # index of columns instead of a KD-tree (neighbours.point_index), faster
-    # to build and to search. The ground's long searches (walls far from any
-    # ground point) are few since NearGround skips the nodes high above it:
-    # on the 1 km city its searches take 0.37 s against the KD-tree's 0.5 s,
-    # and its index 0.37 s of a background thread against 0.65-0.77 s.
+    # own, the buildings' while the voxel steps run, which mostly use one
+    # core: 1.4 s of KD-tree builds on the 1 km city. They hold these arrays,
+    # not copies of them: nothing below writes to them. With numba both get a
+    # compiled index of columns instead of a KD-tree (neighbours.point_index),
+    # faster to build and to search. The ground's long searches (walls far
+    # from any ground point) are few since NearGround skips the nodes high
+    # above it: on the 1 km city its searches take 0.37 s against the
+    # KD-tree's 0.5 s, and its index 0.37 s of a background thread against
+    # 0.65-0.77 s.
     building_search = in_background(point_index, building, COLUMN_VOXELS * h)
-    ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
     near_ground = in_background(NearGround, grid, ground)
     lap("grid")
 
@@ -343,11 +343,6 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         lap("smooth")
     if params.project:
         report(0.85, "Projecting nodes onto the data")
-        # Ground data for the ground and the base of the blocks: the ground points,
-        # and the interpolated level where the ground was not seen (under roofs).
-        xs, ys = grid.column_centres()
-        ui, uj = np.nonzero(~level.observed)
-        ground_data = np.concatenate([ground, np.column_stack([xs[ui], ys[uj], level.z[ui, uj]])])
         base = roles.on_block & roles.on_ground & ~roles.foot
         on_buildings = roles.on_block & ~base
         on_terrain = (roles.on_ground & ~roles.on_block) | base
@@ -355,6 +350,17 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         nodes, stats["projection_buildings"] = project_nodes(
             surface, nodes, roles, on_buildings, building, h, params.quality_threshold, angle,
             is_cancelled=is_cancelled, tree=building_search)
+        # The ground points' search and the ground data (the ground points, and
+        # the interpolated level where the ground was not seen, under roofs)
+        # are made now, not held through the smoothing and the buildings'
+        # crossing control, the run's peaks of memory (200 and 170 MB on the
+        # 1 km city): the search for the distances measured at the end, on a
+        # thread of its own while the ground is projected; the data for the
+        # ground and the base of the blocks.
+        ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
+        xs, ys = grid.column_centres()
+        ui, uj = np.nonzero(~level.observed)
+        ground_data = np.concatenate([ground, np.column_stack([xs[ui], ys[uj], level.z[ui, uj]])])
         # Terrain nodes move along the (near vertical) terrain normal, away from
         # any other surface: the costly crossing test is kept for the buildings.
         nodes, stats["projection_ground"] = project_nodes(
@@ -362,6 +368,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
             check_crossings=False, is_cancelled=is_cancelled)
         lap("project")
         del ground_data
+    if not params.project:  # else started before the ground's projection
+        ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
     mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
     # Distance of block nodes to the data (the nearest building or ground
     # point). Most block nodes are roofs and walls, high above any ground
