@@ -209,8 +209,8 @@ def _boxes(nodes, tri, start, stop, lower, upper):
             upper[axis, t] = np.nextafter(high32, up) if high32 < high else high32
 
 
-@compiled
-def _bucket(members, centre, reach, x0, y0, cell, nx, ny):
+def _bucket(members: np.ndarray, centre: np.ndarray, reach: np.ndarray, x0: float, y0: float, cell: float,
+            nx: int, ny: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``members`` by column, each column's by height
     (:func:`core.neighbours_kernel.by_column`): the members in that order,
     where each column starts in it (nx ny + 1), and the members' centres
@@ -218,10 +218,16 @@ def _bucket(members, centre, reach, x0, y0, cell, nx, ny):
     order = np.empty(len(members), np.int64)
     start = by_column(centre, members, x0, y0, cell, nx, ny, order)
     ball = np.empty((4, len(order)))
-    for i in range(len(order)):
+    map_blocks(lambda rows: _balls_by(order, centre, reach, rows.start, rows.stop, ball), thread_blocks(len(order)))
+    return order, start, ball
+
+
+@compiled
+def _balls_by(order, centre, reach, first, stop, ball):
+    """Centres and reaches of the quads ``order[first:stop]`` into columns ``first:stop`` of ``ball``."""
+    for i in range(first, stop):
         m = order[i]
         ball[0, i], ball[1, i], ball[2, i], ball[3, i] = centre[m, 0], centre[m, 1], centre[m, 2], reach[m]
-    return order, start, ball
 
 
 @compiled

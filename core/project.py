@@ -101,13 +101,15 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
     n = len(nodes)
     if select is None:
         select = np.ones(n, dtype=bool)
-    block_quads, _ = model.block_faces()
-    ground_quads = model.closed_surface(GROUND_REGION)
     normal = np.zeros((n, 3))
-    for quads, wanted in ((block_quads, select & roles.on_block), (ground_quads, select & ~roles.on_block)):
+    # The faces of a surface are gathered only where a wanted node follows
+    # it: the projection asks for the blocks' nodes, then mostly the ground's.
+    for faces_of, wanted in ((lambda: model.block_faces()[0], select & roles.on_block),
+                             (lambda: model.closed_surface(GROUND_REGION), select & ~roles.on_block)):
         if wanted.any():
             # The faces around the wanted nodes, in their order: each node's
             # sum runs over the same faces in the same order as with all faces.
+            quads = faces_of()
             quads = quads.compress(touching(wanted, quads), axis=0)
             np.copyto(normal, node_normals(nodes, quads, n), where=wanted[:, None])
     return normal

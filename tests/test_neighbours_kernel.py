@@ -123,3 +123,27 @@ def test_square_roots_tie_where_squared_distances_do_not(kernel, k):
     got = kernel.ColumnIndex(data, 1.0).nearest(at, k, 1.5)
     assert_same(data, brute_force(data, at, k, 1.5), got)
     assert np.array_equal(data[got[1][:, k - 1]] - at, np.broadcast_to(tied[1], at.shape))
+
+
+@pytest.mark.parametrize("threads,parallel_points", [("1", 1 << 16), ("3", 10)])
+@pytest.mark.parametrize("subset", [False, True])
+def test_points_sorted_by_column_then_height_in_their_order_on_every_core(kernel, monkeypatch, threads,
+                                                                         parallel_points, subset):
+    """by_column on one block and on several (each thread's points put after
+    the blocks before it in every column): by column, then by height, ties in
+    the order of the points, as a stable sort of (column, height) gives."""
+    monkeypatch.setenv("URBANVOX_THREADS", threads)
+    monkeypatch.setattr(kernel, "_PARALLEL_POINTS", parallel_points)
+    rng = np.random.default_rng(7)
+    xyz = np.round(rng.random((5_000, 3)) * [9.0, 7.0, 3.0], 1)  # many equal heights in a column
+    xyz[::50] = [-4.0, 20.0, 1.0]  # clipped into a border column, all at one height
+    rows = rng.permutation(len(xyz))[:3_000] if subset else np.empty(0, np.int64)
+    chosen = rows if subset else np.arange(len(xyz))
+    nx, ny = 5, 4
+    column = (np.clip(np.floor(xyz[chosen, 0] / 2.0), 0, nx - 1)
+              + nx * np.clip(np.floor(xyz[chosen, 1] / 2.0), 0, ny - 1)).astype(np.int64)
+    expected = chosen[np.lexsort((xyz[chosen, 2], column))]
+    order = np.empty(len(chosen), np.int64)
+    start = kernel.by_column(xyz, rows, 0.0, 0.0, 2.0, nx, ny, order)
+    assert np.array_equal(order, expected)
+    assert np.array_equal(start, np.concatenate([[0], np.cumsum(np.bincount(column, minlength=nx * ny))]))
