@@ -16,7 +16,8 @@ elimination's support test (:mod:`core.support_kernel`), the faces between
 regions (:mod:`core.surface_kernel`), the selections
 of moved nodes and the faces around them (:mod:`core.topology_kernel`) and
 the connected parts of the gmsh export (:mod:`core.export_kernel`),
-the per-block sums of the measures (:mod:`core.measure_kernel`) and the
+the per-block sums of the measures (:mod:`core.measure_kernel`), the
+weighted moments of the MLS planes (:mod:`core.mls_kernel`) and the
 reader's sorting of a LAS chunk's points (:mod:`core.las_kernel`).
 numba compiles such loops; the issue that asked for speed allows a compiled
 kernel only where numpy cannot reach the target, and only with the same
@@ -50,8 +51,8 @@ from .errors import Cancelled
 #: The reader's comes first: :func:`preload` loads them in this order while
 #: a file is read, and the reader uses its own once it is loaded.
 KERNELS = ("las_kernel", "blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
-           "manifold_kernel", "measure_kernel", "neighbours_kernel", "projection_kernel", "quality_kernel",
-           "smooth_kernel", "support_kernel", "surface_kernel", "topology_kernel")
+           "manifold_kernel", "measure_kernel", "mls_kernel", "neighbours_kernel", "projection_kernel",
+           "quality_kernel", "smooth_kernel", "support_kernel", "surface_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

@@ -7,7 +7,7 @@ quad split into the two triangles that maximise the shape quality
 1. the data point closest to the line through the node along its normal is
    chosen among the points near the node;
 2. the data points around it fit a moving-least-squares plane (weighted
-   principal axes, Gaussian weights);
+   principal axes, Gaussian weights; :mod:`core.mls`);
 3. if that plane's normal is compatible with the node's (angle below
    ``max_angle``), the node moves along its normal onto the plane;
    otherwise the next data point is tried;
@@ -32,6 +32,7 @@ from scipy.spatial import cKDTree
 from . import jit
 from .errors import Cancelled
 from .intersect import undo_crossings
+from .mls import PlaneCache
 from .neighbours import PointSearch, by_value_then_coordinates, nearest, point_index
 from .parallel import map_blocks, on_pool, row_blocks
 from .quality import accept_moves, quad_normals
@@ -40,12 +41,12 @@ from .surface import GROUND_REGION, SurfaceModel
 from .topology import changed_rows, touching
 from .vectors import cross, dot, length
 
-#: Data points examined around each node, planes tried per node, points per plane.
-_NEAR, _TRIES, _PLANE_POINTS = 24, 3, 12
+#: Data points examined around each node, planes tried per node.
+_NEAR, _TRIES = 24, 3
 #: Side of the columns of the compiled point index, in voxels (core.neighbours_kernel):
 #: the candidates' search radius (1.5 voxels) spans two or three of them.
 COLUMN_VOXELS = 1.5
-#: Planes fitted per block of rows (temporaries of a few MB).
+#: Quads whose normals numpy makes per block of rows (temporaries of a few MB).
 _FIT_ROWS = 16384
 #: Nodes whose candidate points are searched at a time, and ranked at a time.
 _QUERY_ROWS, _LINE_ROWS = 1 << 17, 4096
@@ -115,108 +116,6 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
     return normal
 
 
-def mls_planes(data: np.ndarray, tree: PointSearch, at: np.ndarray, sigma: float,
-               k: int = _PLANE_POINTS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Weighted least-squares planes of the data around points ``at``.
-
-    Returns
-    -------
-    centre : ndarray (Q, 3)
-        Weighted centroid, a point of the plane.
-    normal : ndarray (Q, 3)
-        Unit normal: the principal axis of least weighted variance
-        (:func:`least_axis`).
-    flat : ndarray of bool (Q,)
-        The neighbourhood spans a plane (not a line or a point).
-    """
-    blocks = row_blocks(len(at), _FIT_ROWS)
-    # One thread per query where the blocks run on the pool's threads.
-    workers = 1 if on_pool(blocks) else None
-
-    def fit(rows: slice) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        # The neighbours of a block of rows only: tables of all of them took
-        # hundreds of MB on a city.
-        dist, idx = nearest(tree, data, at[rows], k, workers=workers)
-        x = data.take(idx, axis=0)
-        w = np.exp(-(dist / sigma) ** 2)
-        w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
-        centre = np.einsum("qk,qkc->qc", w, x)
-        d = x - centre[:, None, :]
-        cov = np.matmul((w[:, :, None] * d).transpose(0, 2, 1), d)
-        normal, values = least_axis(cov)
-        return centre, normal, values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
-
-    # Each plane is fitted from its own rows: blocks of rows run on all cores
-    # (the KD-tree searches release the GIL).
-    parts = map_blocks(fit, blocks) or [fit(slice(0, 0))]
-    return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))
-
-
-def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit eigenvector of the smallest eigenvalue, and the eigenvalues in
-    ascending order, of symmetric 3 x 3 matrices ``cov`` (Q, 3, 3).
-
-    The eigenvalues come in closed form (the trigonometric solution of the
-    characteristic cubic), the vector as the longest cross product of two
-    rows of ``cov - value * I``, then again with the value refined as the
-    Rayleigh quotient of that vector. Five times faster than
-    ``np.linalg.eigh`` (one LAPACK call per matrix); the vectors agree with
-    it to 1e-13 wherever the two smallest eigenvalues differ by more than
-    1e-3 of the largest (the planes that count as flat), the eigenvalues to
-    1e-9 of the largest (near a double root; 1e-15 elsewhere). Only the lower
-    triangle is read. Where the smallest eigenvalue is double, any unit
-    vector of its plane may come, as from ``eigh``; where every cross
-    product is zero (a multiple of the identity), (0, 0, 1).
-
-    Examples
-    --------
-    >>> cov = np.array([[[2.0, 0, 0], [0, 3, 0], [0, 0, 0.5]]])
-    >>> normal, values = least_axis(cov)
-    >>> np.abs(normal).round(12).tolist(), values.round(12).tolist()
-    ([[0.0, 0.0, 1.0]], [[0.5, 2.0, 3.0]])
-    """
-    a00, a11, a22 = cov[:, 0, 0], cov[:, 1, 1], cov[:, 2, 2]
-    a01, a02, a12 = cov[:, 1, 0], cov[:, 2, 0], cov[:, 2, 1]
-    mean = (a00 + a11 + a22) / 3
-    b00, b11, b22 = a00 - mean, a11 - mean, a22 - mean
-    spread = np.sqrt((b00 * b00 + b11 * b11 + b22 * b22 + 2 * (a01 * a01 + a02 * a02 + a12 * a12)) / 6)
-    scale = np.where(spread > 0, spread, 1.0)
-    half_det = (b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02)
-                + a02 * (a01 * a12 - b11 * a02)) / (2 * scale**3)
-    angle = np.arccos(np.clip(half_det, -1.0, 1.0)) / 3
-    high = mean + 2 * spread * np.cos(angle)
-    low = mean + 2 * spread * np.cos(angle + 2 * np.pi / 3)
-    values = np.stack([low, 3 * mean - high - low, high], axis=1)
-
-    def null_vector(value: np.ndarray) -> np.ndarray:
-        rows = ([a00 - value, a01, a02], [a01, a11 - value, a12], [a02, a12, a22 - value])
-        best, best_length2 = None, None
-        for u, v in ((rows[0], rows[1]), (rows[0], rows[2]), (rows[1], rows[2])):
-            c = cross(u, v)
-            length2 = c[0] * c[0] + c[1] * c[1] + c[2] * c[2]
-            if best is None:
-                best, best_length2 = c, length2
-            else:
-                longer = length2 > best_length2
-                best = [np.where(longer, c[i], best[i]) for i in range(3)]
-                best_length2 = np.where(longer, length2, best_length2)
-        size = np.sqrt(best_length2)
-        found = size > 0
-        size = np.where(found, size, 1.0)
-        return np.stack([np.where(found, best[0] / size, 0.0), np.where(found, best[1] / size, 0.0),
-                         np.where(found, best[2] / size, 1.0)], axis=1)
-
-    normal = null_vector(low)
-    # The eigenvalue from the closed form is off by round-off times the
-    # largest one, which tilts the vector by ~1e-11 rad on flat data: the
-    # Rayleigh quotient of that vector is exact to second order.
-    v = [normal[:, 0], normal[:, 1], normal[:, 2]]
-    cov_v = [a00 * v[0] + a01 * v[1] + a02 * v[2], a01 * v[0] + a11 * v[1] + a12 * v[2],
-             a02 * v[0] + a12 * v[1] + a22 * v[2]]
-    refined = v[0] * cov_v[0] + v[1] * cov_v[1] + v[2] * cov_v[2]
-    return null_vector(refined), values
-
-
 def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, select: np.ndarray,
                   data: np.ndarray, voxel_size: float, threshold: float,
                   max_angle: float = 45.0, max_distance: float = 1.5, check_crossings: bool = True,
@@ -278,7 +177,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     cos_max = np.cos(np.radians(max_angle))
     target = p.copy()
     done = ~usable
-    planes = _PlaneCache(data, tree, 0.5 * voxel_size)
+    planes = PlaneCache(data, tree, 0.5 * voxel_size)
     for attempt in range(candidates.shape[1]):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
@@ -309,42 +208,6 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     stats["projected"] = int((wanted & kept).sum())
     stats["refused"] = int((wanted & ~kept).sum())
     return result, stats
-
-
-class _PlaneCache:
-    """The MLS planes (:func:`mls_planes`) at data points, each fitted once:
-    neighbouring nodes often pick the same point, and a point one node tries
-    first, another may try next (on the 1 km synthetic city, 6 % of the
-    second and third tries).
-
-    The planes are found through a table of one slot per data point, not by
-    sorting the points asked for (``np.unique``, then a search among those
-    fitted before): 0.28 s of the two projections' 2.2 s on the 1 km city
-    went to that bookkeeping."""
-
-    def __init__(self, data: np.ndarray, tree: PointSearch, sigma: float):
-        self.data, self.tree, self.sigma = data, tree, sigma
-        #: Row of each data point's plane in the tables below, -1 if not fitted yet.
-        self.slot = np.full(len(data), -1, dtype=np.int32 if len(data) < 2**31 else np.int64)
-        self.centre, self.normal = np.empty((0, 3)), np.empty((0, 3))
-        self.flat = np.empty(0, dtype=bool)
-
-    def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Centre, normal and flatness (as :func:`mls_planes`) of the planes at ``points`` (data indices)."""
-        missing = points.compress(self.slot.take(points) < 0)
-        if len(missing):
-            # The points not fitted yet, once each and ascending (as np.unique).
-            wanted = np.zeros(len(self.data), dtype=bool)
-            wanted[missing] = True
-            new = np.flatnonzero(wanted)
-            centre, normal, flat = mls_planes(self.data, self.tree, self.data.take(new, axis=0), self.sigma,
-                                              _PLANE_POINTS)
-            self.slot[new] = np.arange(len(self.flat), len(self.flat) + len(new))
-            self.centre = np.concatenate([self.centre, centre])
-            self.normal = np.concatenate([self.normal, normal])
-            self.flat = np.concatenate([self.flat, flat])
-        row = self.slot.take(points)
-        return self.centre.take(row, axis=0), self.normal.take(row, axis=0), self.flat.take(row)
 
 
 def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.ndarray, radius: float,

@@ -82,7 +82,7 @@ def test_queries_take_the_threads_they_are_given(monkeypatch):
     """A Dask worker's share of the cores (URBANVOX_THREADS), not every core;
     one thread inside the row-block pool (the MLS planes), all of them when a
     single block runs outside it."""
-    from core.project import mls_planes
+    from core.mls import mls_planes
 
     data = np.random.default_rng(3).uniform(0, 10, (5000, 3))
     tree = _CountingTree(data)

@@ -33,7 +33,7 @@ def test_node_normals_are_the_mean_of_the_best_split_quad_normals():
 
 
 def test_least_axis_matches_lapack_on_planes_lines_and_blobs():
-    from core.project import least_axis
+    from core.mls import least_axis
 
     rng = np.random.default_rng(11)
     for thickness in (1e-4, 0.01, 0.3, 1.0):
@@ -63,21 +63,21 @@ def test_least_axis_matches_lapack_on_planes_lines_and_blobs():
 
 def test_planes_fitted_once_per_data_point_are_those_fitted_each_time():
     # The projection's tries ask planes at data points, often the same ones
-    # across tries: each is fitted once (project._PlaneCache), and is the
+    # across tries: each is fitted once (mls.PlaneCache), and is the
     # plane mls_planes fits at that point alone, bit for bit.
     from core.neighbours import search_tree
-    from core.project import _PLANE_POINTS, _PlaneCache, mls_planes
+    from core.mls import PLANE_POINTS, PlaneCache, mls_planes
 
     rng = np.random.default_rng(4)
     data = np.column_stack([rng.uniform(0, 20, 4000), rng.uniform(0, 20, 4000), rng.normal(0, 0.05, 4000)])
     data[:300, 2] = rng.uniform(0, 5, 300)  # a few points off the plane: some neighbourhoods tilt
     tree = search_tree(data)
-    planes = _PlaneCache(data, tree, 0.5)
+    planes = PlaneCache(data, tree, 0.5)
     tries = [rng.integers(0, 2000, 3000), rng.integers(1000, 3000, 500), rng.integers(0, 4000, 200),
              np.zeros(0, dtype=np.intp)]
     for points in tries:
         got = planes(points)
-        for one, expected in zip(got, mls_planes(data, tree, data.take(points, axis=0), 0.5, _PLANE_POINTS)):
+        for one, expected in zip(got, mls_planes(data, tree, data.take(points, axis=0), 0.5, PLANE_POINTS)):
             assert np.array_equal(one, expected)
     # Each point asked for has one plane, and no other point has any.
     fitted = np.flatnonzero(planes.slot >= 0)

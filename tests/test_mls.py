@@ -1,0 +1,72 @@
+"""Moving-least-squares planes (core.mls): the weighted moments against their
+former einsum and BLAS formulation, the compiled pass (core.mls_kernel)
+against numpy's, and planes fitted to data with a known plane."""
+import numpy as np
+import pytest
+
+from core.mls import PLANE_POINTS, least_axis, mls_planes, weighted_moments
+from core.neighbours import point_index, search_tree
+
+
+def random_rows(seed: int, n_rows: int = 5_000, k: int = PLANE_POINTS, n_points: int = 20_000):
+    """Data around 1 km from the origin (a city's local frame), rows of k points and weights summing to one."""
+    rng = np.random.default_rng(seed)
+    data = rng.random((n_points, 3)) * [40.0, 30.0, 12.0] + [980.0, 1020.0, 35.0]
+    idx = rng.integers(0, n_points, size=(n_rows, k))
+    w = np.exp(-rng.random((n_rows, k)) * 4)
+    w /= w.sum(axis=1, keepdims=True)
+    return data, idx, w
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_moments_are_the_einsum_and_matmul_ones_to_round_off(seed, with_numpy):
+    data, idx, w = random_rows(seed)
+    x = data.take(idx, axis=0)
+    centre = np.einsum("qk,qkc->qc", w, x)
+    d = x - centre[:, None, :]
+    scatter = np.matmul((w[:, :, None] * d).transpose(0, 2, 1), d)
+    got_centre, got_scatter = with_numpy(weighted_moments, data, idx, w)
+    # The centroid is summed as einsum sums it; BLAS may fuse or reorder the products.
+    np.testing.assert_allclose(got_centre, centre, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got_scatter, scatter, rtol=0, atol=1e-13 * np.abs(scatter).max())
+    assert np.array_equal(got_scatter, got_scatter.transpose(0, 2, 1))
+
+
+@pytest.mark.parametrize("k", [PLANE_POINTS, 3, 24])
+def test_compiled_moments_are_numpys_to_the_last_bit(k, compiled, with_numpy):
+    compiled("mls_kernel")
+    data, idx, w = random_rows(k, k=k)
+    got = weighted_moments(data, idx, w)
+    expected = with_numpy(weighted_moments, data, idx, w)
+    for one, other in zip(got, expected):
+        assert np.array_equal(one, other)
+
+
+@pytest.mark.parametrize("switch", ["0", "1"])
+def test_planes_of_points_on_a_tilted_roof_are_that_roof(switch, monkeypatch, compiled):
+    # A roof z = 0.4 x - 0.2 y + 30 sampled at 10 points/m², jittered in plan:
+    # every plane inside it is that plane, through the points' weighted centre.
+    monkeypatch.setenv("URBANVOX_JIT", switch)
+    if switch == "1":
+        compiled("mls_kernel")
+    rng = np.random.default_rng(2)
+    xy = rng.random((4_000, 2)) * 20.0
+    data = np.column_stack([xy, 0.4 * xy[:, 0] - 0.2 * xy[:, 1] + 30.0])
+    inside = np.flatnonzero(np.all((xy > 3.0) & (xy < 17.0), axis=1))
+    centre, normal, flat = mls_planes(data, point_index(data, 1.5) if switch == "1" else search_tree(data),
+                                      data[inside], 0.5)
+    expected = np.array([-0.4, 0.2, 1.0]) / np.linalg.norm([-0.4, 0.2, 1.0])
+    assert flat.all()
+    assert np.abs(np.abs(normal @ expected) - 1).max() < 1e-12
+    on_roof = 0.4 * centre[:, 0] - 0.2 * centre[:, 1] + 30.0
+    assert np.abs(centre[:, 2] - on_roof).max() < 1e-11
+    assert np.abs(centre[:, :2] - xy[inside]).max() < 0.6  # within the 12 nearest points' reach
+
+
+def test_points_on_a_line_make_no_flat_plane():
+    data = np.column_stack([np.linspace(0, 10, 50), np.linspace(0, 5, 50), np.full(50, 3.0)])
+    _, normal, flat = mls_planes(data, search_tree(data), data[20:30], 0.5)
+    assert not flat.any()
+    assert np.allclose(np.linalg.norm(normal, axis=1), 1.0)
+    _, values = least_axis(np.zeros((1, 3, 3)))
+    assert values.tolist() == [[0.0, 0.0, 0.0]]
