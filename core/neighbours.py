@@ -80,7 +80,8 @@ def kd_tree(search: PointSearch, data: np.ndarray) -> cKDTree:
 
 
 def nearest(tree: PointSearch, data: np.ndarray, at: np.ndarray, k: int,
-            upper: float = np.inf, spare: int = 8, workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+            upper: float | np.ndarray = np.inf, spare: int = 8,
+            workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The ``k`` nearest data points of every point ``at``, ties broken by coordinates.
 
     A KD-tree returns points at equal distances in the order it visits them,
@@ -91,7 +92,9 @@ def nearest(tree: PointSearch, data: np.ndarray, at: np.ndarray, k: int,
     ``upper``) have distance ``inf`` and index ``len(data)``. The search runs
     on ``workers`` threads (default :func:`core.parallel.thread_count`; 1
     from a thread of the row-block pool). ``tree`` may also be a compiled
-    index (:func:`point_index`), which gives the same answers.
+    index (:func:`point_index`), which gives the same answers. ``upper``
+    may give each point a bound of its own; a KD-tree then searches within
+    the largest, and may return points beyond a point's own bound.
 
     Examples
     --------
@@ -106,6 +109,8 @@ def nearest(tree: PointSearch, data: np.ndarray, at: np.ndarray, k: int,
         if found is not None:
             return found
         tree = kd_tree(tree, data)  # the kernel failed (core.jit.run)
+    if np.ndim(upper):
+        upper = float(np.max(upper, initial=0.0))
     k = min(k, len(data))
     workers = workers or thread_count()
     out_dist, out_idx = _nearest_of(tree, data, at, k, min(k + 1, len(data)), upper, workers)
@@ -192,13 +197,17 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
             continue
         maybe = maybe_within[n] if maybe_within is not None else None
 
-        def within(rows: np.ndarray | None, upper: float, tree=tree, maybe=maybe) -> np.ndarray:
+        def within(rows: np.ndarray | None, limit: float, tree=tree, maybe=maybe) -> np.ndarray:
             where = points if rows is None else points.take(rows, axis=0)
+            # A point of this tree counts only if nearer than the nearest
+            # found so far: each point searches no farther than that (the same
+            # minimum; on the 1 km city the ground's searches 0.38 -> 0.11 s).
+            upper = np.minimum(limit, distance if rows is None else distance.take(rows))
             if maybe is None:
                 return nearest_within(tree, where, upper)
             found = np.full(len(where), np.inf)
-            some = np.flatnonzero(maybe(where, upper))
-            found[some] = nearest_within(tree, where.take(some, axis=0), upper)
+            some = np.flatnonzero(maybe(where, limit))
+            found[some] = nearest_within(tree, where.take(some, axis=0), upper.take(some))
             return found
 
         found = within(None, bound)
@@ -220,10 +229,12 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
     return distance
 
 
-def nearest_within(tree, points: np.ndarray, upper: float) -> np.ndarray:
+def nearest_within(tree, points: np.ndarray, upper: float | np.ndarray) -> np.ndarray:
     """Distance from every point to the nearest data point strictly within
     ``upper`` (``inf`` if none), through a KD-tree or a compiled index
-    (:func:`point_index`): the same distances.
+    (:func:`point_index`): the same distances. With a bound per point, a
+    KD-tree searches within the largest, and may find points beyond a
+    point's own bound (for a caller that keeps the smaller of the two).
 
     Examples
     --------
@@ -232,5 +243,6 @@ def nearest_within(tree, points: np.ndarray, upper: float) -> np.ndarray:
     [1.0, inf]
     """
     if isinstance(tree, cKDTree):
-        return tree.query(points, k=1, distance_upper_bound=upper, workers=thread_count())[0]
+        bound = float(np.max(upper, initial=0.0)) if np.ndim(upper) else float(upper)
+        return tree.query(points, k=1, distance_upper_bound=bound, workers=thread_count())[0]
     return nearest(tree, tree.data, points, 1, upper)[0][:, 0].copy()

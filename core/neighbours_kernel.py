@@ -74,11 +74,12 @@ class ColumnIndex:
         """Points indexed (as ``cKDTree.n``)."""
         return len(self.data)
 
-    def nearest(self, at: np.ndarray, k: int, upper: float = np.inf,
+    def nearest(self, at: np.ndarray, k: int, upper: float | np.ndarray = np.inf,
                 workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The ``k`` nearest data points of every point ``at`` (see the module
         doc), on ``workers`` threads (default: the pool's; 1 from a thread
-        of the pool, :mod:`core.parallel`).
+        of the pool, :mod:`core.parallel`). ``upper`` may also give each
+        point a bound of its own (an array of one per point).
 
         Returns
         -------
@@ -91,15 +92,17 @@ class ColumnIndex:
         idx = np.empty((len(at), k), dtype=np.intp)
         if k == 0 or len(at) == 0:
             return dist, idx
-        upper = float(upper)
+        # One bound for all (an array of one) or one per point.
+        upper = np.ascontiguousarray(upper, dtype=np.float64).reshape(-1)
+        if len(upper) not in (1, len(at)):
+            raise ValueError(f"{len(upper)} bounds for {len(at)} points")
         # The first radius of an unbounded search: about where k points lie
         # on surfaces as dense as the data, with a margin (a search that
         # finds fewer widens, twice the radius each time, and looks at its
         # points again). On the 1 km city, the MLS planes' 12 nearest take
         # 1.09 -> 0.84 s and the nodes' nearest point 2.0 -> 1.1 s against a
         # radius of one column; the answers do not change.
-        first = upper if np.isfinite(upper) else \
-            float(np.clip(1.3 * np.sqrt(k / (np.pi * self.density)), 0.35 * self.cell, self.cell))
+        first = float(np.clip(1.3 * np.sqrt(k / (np.pi * self.density)), 0.35 * self.cell, self.cell))
 
         def fill(rows: slice) -> None:
             _nearest(at, rows.start, rows.stop, k, upper, first, self.x0, self.y0, self.cell, self.nx, self.ny,
@@ -137,7 +140,8 @@ def column_grid(xyz: np.ndarray, cell: float) -> tuple[float, float, float, int,
     return low[0], low[1], cell, nx, ny
 
 
-def nearest_in(index: ColumnIndex, at: np.ndarray, k: int, upper: float = np.inf, workers: int | None = None):
+def nearest_in(index: ColumnIndex, at: np.ndarray, k: int, upper: float | np.ndarray = np.inf,
+               workers: int | None = None):
     """``index.nearest(at, k, upper, workers)``: for :func:`core.jit.run`."""
     return index.nearest(at, k, upper, workers)
 
@@ -424,14 +428,15 @@ def k_nearest(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start,
 
 @compiled
 def _nearest(at, start_row, stop_row, k, upper, first, x0, y0, cell, nx, ny, order, start, points, dist, idx):
-    """Rows ``start_row:stop_row`` of :meth:`ColumnIndex.nearest`."""
+    """Rows ``start_row:stop_row`` of :meth:`ColumnIndex.nearest`; ``upper``
+    holds one bound for all rows or one per row."""
     n = len(order)
     key = np.empty((k, 3))
-    bounded = upper < np.inf
     for q in range(start_row, stop_row):
         qx, qy, qz = at[q, 0], at[q, 1], at[q, 2]
-        if bounded:
-            kept = k_nearest(qx, qy, qz, k, upper, True, x0, y0, cell, nx, ny, order, start, points, dist, idx,
+        bound = upper[0] if len(upper) == 1 else upper[q]
+        if bound < np.inf:
+            kept = k_nearest(qx, qy, qz, k, bound, True, x0, y0, cell, nx, ny, order, start, points, dist, idx,
                              key, q)
         else:
             # Widen until the k-th found lies within the searched radius: every

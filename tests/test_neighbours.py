@@ -50,6 +50,32 @@ def test_nearest_distance_over_several_trees_matches_brute_force_over_their_unio
     assert np.isnan(nearest_distance(points, [search_tree(data[:0])], 1.0)).all()
 
 
+def test_compiled_searches_bounded_by_the_distance_so_far_find_the_same_distances(compiled):
+    """The second index's searches go no farther than each point's distance
+    so far (its own bound, core.neighbours_kernel): the minimum over both
+    stays the brute-force one, ties at that distance included."""
+    from core.neighbours import point_index
+
+    kernel = compiled("neighbours_kernel")
+    rng = np.random.default_rng(4)
+    data = np.round(rng.random((600, 3)) * 10, 1)  # points at equal distances from lattice queries
+    points = np.concatenate([np.round(rng.random((300, 3)) * 12, 1), rng.random((100, 3)) * 40 - 15])
+    want = np.linalg.norm(points[:, None] - data[None], axis=2).min(axis=1)
+    for split in (1, 300, 599):
+        for bound in (0.0, 0.3, 1.0, 100.0):
+            indexes = [point_index(data[:split], 1.0), point_index(data[split:], 1.0)]
+            assert isinstance(indexes[1], kernel.ColumnIndex)
+            np.testing.assert_array_equal(nearest_distance(points, indexes, bound), want)
+    # A bound per point: each point's nearest strictly within its own bound, else none.
+    index = kernel.ColumnIndex(data, 1.0)
+    bounds = rng.random(len(points)) * 3
+    got = index.nearest(points, 1, bounds)[0][:, 0]
+    each = np.array([index.nearest(p[None], 1, b)[0][0, 0] for p, b in zip(points, bounds)])
+    np.testing.assert_array_equal(got, each)
+    assert np.isfinite(got).any() and np.isinf(got).any()
+    np.testing.assert_array_equal(got, np.where(want < bounds, want, np.inf))
+
+
 def test_nearest_distance_skips_only_points_with_nothing_that_near():
     # Building points above ground points on a 1 m grid of columns: the
     # ground's searches skip the points higher above the ground's ceiling
