@@ -34,7 +34,7 @@ from .errors import Cancelled
 from .intersect import undo_crossings
 from .mls import PlaneCache
 from .neighbours import PointSearch, by_value_then_coordinates, nearest, point_index
-from .parallel import map_blocks, on_pool, row_blocks
+from .parallel import map_blocks, row_blocks
 from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
