@@ -167,6 +167,10 @@ class SurfaceModel:
         # faces of closed_surface in its order. Small ranks sort by radix.
         side_region = self.regions.ravel().astype(np.int64)
         rank = rank_in(side_region, wanted)
+        # The same rows in two passes over the sides (core.surface_kernel).
+        found = jit.run("surface_kernel", "sides_by_rank", self.quads, self.regions, rank, len(wanted), size=len(rank))
+        if found is not None:
+            return found
         entry = np.flatnonzero(rank >= 0)
         key = rank[entry].astype(np.int16 if len(wanted) <= np.iinfo(np.int16).max else np.int64)
         entry = entry[np.argsort(key, kind="stable")]

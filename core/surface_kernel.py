@@ -12,6 +12,8 @@ same faces, in the same order (numpy's C order over the pairs, axis after
 axis), with the same corners and regions. The nodes the faces use are then
 numbered (:func:`unique_nodes`) with a bit per lattice node instead of
 numpy's tables of a boolean and a rank per node: 0.4-0.7 -> 0.1-0.3 s there.
+The mesh files list each region's closed surface (:func:`sides_by_rank`)
+through a counting sort of the faces' sides instead of a stable sort.
 """
 from __future__ import annotations
 
@@ -102,6 +104,35 @@ _NONE = np.empty((0, 4), dtype=np.int64)
 _NO_PAIRS = np.empty((0, 2), dtype=np.int32)
 
 
+def sides_by_rank(quads: np.ndarray, regions: np.ndarray, rank: np.ndarray,
+                  n_ranks: int) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`core.surface.SurfaceModel.closed_surfaces` once each side's
+    rank is known: the faces whose side has a rank (``rank`` of side
+    ``2 f + s`` of face ``f``, -1 for none), rank by rank and in face order
+    within one (a stable sort on the rank), each oriented out of the region
+    of that side (reversed for side 1), and that region.
+
+    A counting sort in two passes over the sides: numpy's stable sort, the
+    gather of the rows and the flips of the inward ones took 0.6 s for the
+    1 km synthetic city's 9.7 M triangles (19.4 M sides).
+
+    Examples
+    --------
+    >>> quads = np.array([[0, 1, 2], [2, 1, 3]])
+    >>> faces, region = sides_by_rank(quads, np.array([[5, -1], [-1, 5]], np.int32), np.array([0, 1, 1, 0]), 2)
+    >>> faces.tolist(), region.tolist()
+    ([[0, 1, 2], [3, 1, 2], [2, 1, 0], [2, 1, 3]], [5, 5, -1, -1])
+    """
+    quads, regions = np.ascontiguousarray(quads), np.ascontiguousarray(regions)
+    rank = np.ascontiguousarray(rank, dtype=np.int64)
+    counts = np.zeros(n_ranks + 1, np.int64)
+    _count_ranks(rank, counts)
+    faces = np.empty((int(counts[-1]), quads.shape[1]), dtype=quads.dtype)
+    region = np.empty(len(faces), np.int32)
+    _place_sides(quads, regions, rank, counts, faces, region)
+    return faces, region
+
+
 def warm_up() -> int:
     """Compile for the region volumes the pipeline passes (int32)."""
     from .surface import _CORNERS
@@ -111,7 +142,25 @@ def warm_up() -> int:
     for dtype in (np.int64, np.int32):
         used, inverse = unique_nodes(np.array([[7, 2], [2, 70]], dtype=dtype), 100)
         assert used.tolist() == [2, 7, 70] and inverse.tolist() == [[1, 0], [0, 2]], (used, inverse)
+    for corners in (4, 3):  # quads, and the triangles the mesh files are written from
+        faces, region = sides_by_rank(np.arange(2 * corners).reshape(2, corners), np.array([[5, -1], [-1, 5]], np.int32),
+                                      np.array([0, 1, 1, 0]), 2)
+        assert region.tolist() == [5, 5, -1, -1] and faces[1, 0] == 2 * corners - 1, (faces, region)
     return len(quads)
+
+
+@compiled
+def _count_ranks(rank, counts):
+    """Where each rank's rows start (``counts[r]``), and their number (``counts[-1]``)."""
+    for e in range(len(rank)):
+        if rank[e] >= 0:
+            counts[rank[e]] += 1
+    total = 0
+    for r in range(len(counts) - 1):
+        count = counts[r]
+        counts[r] = total
+        total += count
+    counts[len(counts) - 1] = total
 
 
 @compiled
@@ -202,3 +251,20 @@ def _rank(entries, words, before, start, stop, rank):
         w = node >> 6
         below = (np.uint64(1) << np.uint64(node & 63)) - np.uint64(1)
         rank[e] = before[w] + _ones(words[w] & below)
+
+
+@compiled
+def _place_sides(quads, regions, rank, start, faces, region):
+    """Each ranked side's face, in side order, to the next row of its rank
+    (``start``, advanced), reversed for side 1; its region beside it."""
+    corners = quads.shape[1]
+    for e in range(len(rank)):
+        r = rank[e]
+        if r < 0:
+            continue
+        f, side = e >> 1, e & 1
+        row = start[r]
+        start[r] = row + 1
+        for c in range(corners):
+            faces[row, c] = quads[f, corners - 1 - c] if side else quads[f, c]
+        region[row] = regions[f, side]

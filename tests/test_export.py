@@ -78,11 +78,16 @@ def test_vtu_and_ply_carry_the_regions(result, tmp_path):
     assert check_surface(np.asarray(ply.faces)[region == -2]).ok  # the air, closed
 
 
-def test_closed_surfaces_are_the_closed_surface_of_each_region(result):
+@pytest.mark.parametrize("switch", ["0", "always"])
+def test_closed_surfaces_are_the_closed_surface_of_each_region(result, switch, monkeypatch, compiled):
     """The one-sort grouping the writers use gives each region's faces, in
-    order and orientation, as a scan of all faces per region does."""
+    order and orientation, as a scan of all faces per region does: numpy's
+    stable sort, and the compiled counting sort (core.surface_kernel)."""
     from core.export import _grouped_surfaces, _regions
 
+    monkeypatch.setenv("URBANVOX_JIT", switch)
+    if switch == "always":
+        compiled("surface_kernel")
     for model in (result.mesh, result.mesh.triangulated()):
         regions = _regions(model)[::-1]  # any order asked for is kept
         faces, labels = model.closed_surfaces(regions)
