@@ -44,7 +44,7 @@ def test_compiled_moments_are_numpys_to_the_last_bit(k, compiled, with_numpy):
 
 @pytest.mark.parametrize("switch", ["0", "1"])
 def test_planes_of_points_on_a_tilted_roof_are_that_roof(switch, monkeypatch, compiled):
-    # A roof z = 0.4 x - 0.2 y + 30 sampled at 10 points/m², jittered in plan:
+    # A roof z = 0.4 x - 0.2 y + 30 sampled at 10 points/m², at random in plan:
     # every plane inside it is that plane, through the points' weighted centre.
     monkeypatch.setenv("URBANVOX_JIT", switch)
     if switch == "1":
