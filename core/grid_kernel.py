@@ -27,6 +27,7 @@ import numpy as np
 
 from .neighbours_kernel import compiled
 from .parallel import counted_then_listed, map_blocks, row_blocks, thread_blocks, thread_count
+from .surface_kernel import bit_count
 
 #: Fewest points per thread of the binning: a bitmap's fresh pages and a
 #: thread's start cost more than fewer points take.
@@ -38,9 +39,6 @@ _CHUNK = 512
 _DE_BRUIJN = np.uint64(0x03F79D71B4CB0A89)
 _BIT_OF = np.empty(64, dtype=np.int64)
 _BIT_OF[[int(((1 << b) * 0x03F79D71B4CB0A89) % 2**64) >> 58 for b in range(64)]] = np.arange(64)
-#: Masks of the bit count (:func:`_ones`).
-_PAIRS, _NIBBLES = np.uint64(0x5555555555555555), np.uint64(0x3333333333333333)
-_BYTES, _BYTE_SUM = np.uint64(0x0F0F0F0F0F0F0F0F), np.uint64(0x0101010101010101)
 
 
 def occupied_cells(points: np.ndarray, origin: np.ndarray, voxel_size: float,
@@ -162,15 +160,6 @@ def _mark(points, start, stop, origin, voxel_size, nx, ny, nz, bits, written):
 
 
 @compiled
-def _ones(word):
-    """The number of set bits of a uint64 word (the classic SWAR count: pairs, nibbles, bytes)."""
-    word = word - ((word >> np.uint64(1)) & _PAIRS)
-    word = (word & _NIBBLES) + ((word >> np.uint64(2)) & _NIBBLES)
-    word = (word + (word >> np.uint64(4))) & _BYTES
-    return int((word * _BYTE_SUM) >> np.uint64(56))
-
-
-@compiled
 def _place(low):
     """The place (0-63) of the single bit set in ``low``."""
     return _BIT_OF[(low * _DE_BRUIJN) >> np.uint64(58)]
@@ -199,7 +188,7 @@ def _listed_into(bits, written, first, stop, nx, ny, out, at):
                     if written[t, s] & low:
                         word |= bits[t, w]
                 bits[0, w] = word
-                count += _ones(word)
+                count += bit_count(word)
                 rest ^= low
             written[0, s] = union
         return 3 * count

@@ -211,7 +211,7 @@ def _mark(entries, words):
 
 
 @compiled
-def _ones(word):
+def bit_count(word):
     """The number of bits set in a 64-bit word (the SWAR popcount)."""
     word = word - ((word >> np.uint64(1)) & np.uint64(0x5555555555555555))
     word = (word & np.uint64(0x3333333333333333)) + ((word >> np.uint64(2)) & np.uint64(0x3333333333333333))
@@ -224,7 +224,7 @@ def _bit_counts(words):
     """Bits set in each word."""
     out = np.empty(len(words), np.int64)
     for w in range(len(words)):
-        out[w] = _ones(words[w])
+        out[w] = bit_count(words[w])
     return out
 
 
@@ -250,7 +250,7 @@ def _rank(entries, words, before, start, stop, rank):
         node = entries[e]
         w = node >> 6
         below = (np.uint64(1) << np.uint64(node & 63)) - np.uint64(1)
-        rank[e] = before[w] + _ones(words[w] & below)
+        rank[e] = before[w] + bit_count(words[w] & below)
 
 
 @compiled
