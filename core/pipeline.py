@@ -350,14 +350,15 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         nodes, stats["projection_buildings"] = project_nodes(
             surface, nodes, roles, on_buildings, building, h, params.quality_threshold, angle,
             is_cancelled=is_cancelled, tree=building_search)
-        # The ground points' search and the ground data (the ground points, and
-        # the interpolated level where the ground was not seen, under roofs)
-        # are made now, not held through the smoothing and the buildings'
-        # crossing control, the run's peaks of memory (200 and 170 MB on the
-        # 1 km city): the search for the distances measured at the end, on a
-        # thread of its own while the ground is projected; the data for the
-        # ground and the base of the blocks.
-        ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
+    # The ground points' search (for the distances measured at the end) is
+    # made now, on a thread of its own while the ground is projected, and the
+    # ground data below only for that projection: neither is held through the
+    # smoothing and the buildings' crossing control, the run's peaks of
+    # memory (200 and 170 MB on the 1 km city).
+    ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
+    if params.project:
+        # Ground data for the ground and the base of the blocks: the ground points,
+        # and the interpolated level where the ground was not seen (under roofs).
         xs, ys = grid.column_centres()
         ui, uj = np.nonzero(~level.observed)
         ground_data = np.concatenate([ground, np.column_stack([xs[ui], ys[uj], level.z[ui, uj]])])
@@ -368,8 +369,6 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
             check_crossings=False, is_cancelled=is_cancelled)
         lap("project")
         del ground_data
-    if not params.project:  # else started before the ground's projection
-        ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
     mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
     # Distance of block nodes to the data (the nearest building or ground
     # point). Most block nodes are roofs and walls, high above any ground
