@@ -109,8 +109,7 @@ def nearest(tree: PointSearch, data: np.ndarray, at: np.ndarray, k: int,
         if found is not None:
             return found
         tree = kd_tree(tree, data)  # the kernel failed (core.jit.run)
-    if np.ndim(upper):
-        upper = float(np.max(upper, initial=0.0))
+    upper = _largest(upper)
     k = min(k, len(data))
     workers = workers or thread_count()
     out_dist, out_idx = _nearest_of(tree, data, at, k, min(k + 1, len(data)), upper, workers)
@@ -124,6 +123,11 @@ def nearest(tree: PointSearch, data: np.ndarray, at: np.ndarray, k: int,
                                     workers)
             out_dist[tied], out_idx[tied] = dist[:, :k], idx[:, :k]
     return out_dist, out_idx
+
+
+def _largest(upper: float | np.ndarray) -> float:
+    """The bound a KD-tree searches within: ``upper``, or the largest of a bound per point."""
+    return float(np.max(upper, initial=0.0)) if np.ndim(upper) else float(upper)
 
 
 def _nearest_of(tree: cKDTree, data: np.ndarray, at: np.ndarray, k: int, m: int,
@@ -243,6 +247,5 @@ def nearest_within(tree, points: np.ndarray, upper: float | np.ndarray) -> np.nd
     [1.0, inf]
     """
     if isinstance(tree, cKDTree):
-        bound = float(np.max(upper, initial=0.0)) if np.ndim(upper) else float(upper)
-        return tree.query(points, k=1, distance_upper_bound=bound, workers=thread_count())[0]
+        return tree.query(points, k=1, distance_upper_bound=_largest(upper), workers=thread_count())[0]
     return nearest(tree, tree.data, points, 1, upper)[0][:, 0].copy()
