@@ -8,9 +8,9 @@ Run from the repository root with the project's venv::
 Each run is ``python -m core CITY.laz --tile-size T --workers W`` in its own process; the peak
 memory is the largest sum of resident memory over that process and its Dask workers, polled
 every 0.2 s. Each run's stages (grid, ground, classify, blocks, eliminate, surface, smooth,
-project, measure) are printed summed over its tiles. The synthetic city is generated once into the benchmarks' cache folder (as
-``python -m benchmarks city`` does). Block counts and total volumes of every run are printed
-beside each other: they must be equal.
+project, measure) are printed summed over its tiles. The synthetic city is generated once into
+the benchmarks' cache folder (as ``python -m benchmarks city`` does). Block counts and total
+volumes of every run are printed beside each other: they must be equal.
 """
 from __future__ import annotations
 
@@ -48,13 +48,13 @@ def run(path: Path, voxel: float, tile: float, workers: int, report: Path) -> di
         return {"workers": workers, "failed": child.returncode, "stderr": err[-2000:]}
     doc = json.loads(report.read_text())
     timings = doc["summary"]["timings"]
+    # The stages summed over the tiles (their halos and reruns included); the
+    # tiled part's wall time; the reconstruction's, reading included.
+    stages = {k: v for k, v in timings.items() if k != "tiles_wall"}
     return {"workers": workers, "wall_s": wall, "peak_rss_mb": peak / 2**20,
             "blocks": doc["summary"]["block_count"], "total_volume": doc["summary"]["total_volume"],
             "tiles": doc["stats"].get("tiles"), "tiles_rerun": doc["stats"].get("tiles_rerun"),
-            "core_s": sum(v for k, v in timings.items() if k != "tiles_wall"),
-            # The stages summed over the tiles (their halos and reruns included); the
-            # tiled part's wall time; the reconstruction's, reading included.
-            "stages_s": {k: v for k, v in timings.items() if k != "tiles_wall"},
+            "core_s": sum(stages.values()), "stages_s": stages,
             "tiles_wall_s": timings.get("tiles_wall"), "run_s": doc["seconds"]}
 
 

@@ -143,8 +143,8 @@ def warm_up() -> int:
         used, inverse = unique_nodes(np.array([[7, 2], [2, 70]], dtype=dtype), 100)
         assert used.tolist() == [2, 7, 70] and inverse.tolist() == [[1, 0], [0, 2]], (used, inverse)
     for corners in (4, 3):  # quads, and the triangles the mesh files are written from
-        faces, region = sides_by_rank(np.arange(2 * corners).reshape(2, corners), np.array([[5, -1], [-1, 5]], np.int32),
-                                      np.array([0, 1, 1, 0]), 2)
+        regions = np.array([[5, -1], [-1, 5]], np.int32)
+        faces, region = sides_by_rank(np.arange(2 * corners).reshape(2, corners), regions, np.array([0, 1, 1, 0]), 2)
         assert region.tolist() == [5, 5, -1, -1] and faces[1, 0] == 2 * corners - 1, (faces, region)
     return len(quads)
 
