@@ -176,8 +176,8 @@ def _cubes_around(cells: np.ndarray, shape: np.ndarray, stride: np.ndarray) -> n
     return np.unique(origins[inside] @ stride)
 
 
-# Cube faces as 2 x 2 windows, corners in cyclic order (bit indices of CORNERS).
 def _cube_faces() -> list[tuple[int, int, int, int]]:
+    """Cube faces as 2 x 2 windows, corners in cyclic order (bit indices of CORNERS)."""
     index = {tuple(c): b for b, c in enumerate(CORNERS)}
     faces = []
     for axis in range(3):
@@ -192,11 +192,15 @@ def _cube_faces() -> list[tuple[int, int, int, int]]:
     return faces
 
 
+#: The six faces of a cube, made once: the table below asks for them 6561 times.
+_CUBE_FACES = _cube_faces()
+
+
 def _fix_for(member: list[bool], air: list[bool]) -> int:
     """Air corner to fill for a critical pattern of one set in a cube, or -1."""
     def first_air(candidates) -> int:
         return next((c for c in candidates if air[c]), -1)
-    for a, b, c, d in _cube_faces():
+    for a, b, c, d in _CUBE_FACES:
         if member[a] and member[c] and not member[b] and not member[d]:
             return first_air((b, d))
         if member[b] and member[d] and not member[a] and not member[c]:
