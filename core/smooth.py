@@ -29,6 +29,7 @@ from scipy import sparse
 
 from . import jit
 from .errors import Cancelled
+from .parallel import in_background
 from .quality import FaceState, accept_moves
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, SurfaceModel, unique_nodes
 from .topology import changed_rows, sorted_unique, touching
@@ -218,8 +219,9 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     def step(on_surface: np.ndarray, following: np.ndarray) -> CatmullClarkStep:
         return CatmullClarkStep(model.quads.compress(on_surface & touching(following, model.quads), axis=0), n)
 
+    ground = in_background(step, (a == GROUND_REGION) | (b == GROUND_REGION), follow_ground)
     blocks = step((a > 0) | (b > 0), follow_blocks)
-    ground = step((a == GROUND_REGION) | (b == GROUND_REGION), follow_ground)
+    ground = ground.result()
     from_blocks = follow_blocks[blocks.nodes]
     from_ground = follow_ground[ground.nodes]
     keep = roles.fixed_axes | ~roles.movable[:, None]

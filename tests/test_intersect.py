@@ -160,10 +160,10 @@ def test_a_quad_is_searched_with_the_reach_of_all_four_corners():
 
 
 def test_near_cells_are_the_cells_around_the_seeds_with_a_table_or_a_sort():
-    # _near_cells marks the seeds' cells in a table when the grid of cells
+    # _Cells.near marks the seeds' cells in a table when the grid of cells
     # is small, and sorts the keys otherwise: both give the faces whose cell
     # is at most one cell away from a seed's on every axis.
-    from core.intersect import _near_cells
+    from core.intersect import _Cells
 
     rng = np.random.default_rng(5)
     paths = set()
@@ -178,8 +178,33 @@ def test_near_cells_are_the_cells_around_the_seeds_with_a_table_or_a_sort():
         paths.add(bool(np.prod(dims) <= 4 * n))
         near = np.abs(cell[:, None, :] - cell[None, seeds, :]).max(axis=2) <= 1
         expected = np.flatnonzero(near.any(axis=1))
-        assert np.array_equal(_near_cells(centre, seeds, radius), expected)
+        assert np.array_equal(_Cells(centre, radius).near(seeds), expected)
     assert paths == {True, False}
+
+
+def test_cells_placed_again_are_those_of_a_new_lattice_and_refuse_centres_outside_it():
+    # undo_crossings keeps its lattice across rounds and places again only
+    # the faces whose centre moved: the faces near the seeds are then those
+    # a lattice made afresh over the new centres (with the same origin and
+    # side) gives; a centre moved outside the lattice is refused, and the
+    # caller makes a new one.
+    from core.intersect import _Cells
+
+    rng = np.random.default_rng(8)
+    centre = rng.random((2000, 3)) * 20
+    cells = _Cells(centre, 0.7)
+    moved = rng.choice(len(centre), 50, replace=False)
+    new_centre = centre.copy()
+    new_centre[moved] = np.clip(centre[moved] + rng.normal(0, 2, (50, 3)), centre.min(axis=0), centre.max(axis=0))
+    fresh = _Cells(new_centre, 0.7)  # within the old bounds: the old lattice's origin and size
+    assert fresh.lowest == cells.lowest and np.array_equal(fresh.dims, cells.dims)
+    assert cells.moved(moved, new_centre[moved])
+    assert np.array_equal(cells.key, fresh.key)
+    seeds = rng.choice(len(centre), 30, replace=False)
+    assert np.array_equal(cells.near(seeds), fresh.near(seeds))
+    before = cells.key.copy()
+    assert not cells.moved(moved[:1], centre[moved[:1]] + 100)
+    assert np.array_equal(cells.key, before)
 
 
 def test_pairs_within_slabs_are_every_close_pair_once(monkeypatch):
