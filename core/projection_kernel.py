@@ -35,6 +35,14 @@ from .parallel import map_blocks, thread_blocks
 
 #: Nodes per call of the fused search (blocks on all cores).
 _BLOCK = 1 << 14
+#: The fused search's first radius over the radius of a disc that holds k
+#: points of the data's density (:func:`candidates_near_lines`): 1.1-1.3 did
+#: as well on the 1 km city (ground 0.72-0.75 -> 0.49-0.58 s, buildings
+#: 0.56-0.65 -> 0.51-0.58 s), smaller ones send more nodes to the whole radius.
+_NEAR_RADIUS = 1.2
+#: Share of the latest nodes (a decaying mean) with too few points inside the
+#: first radius above which the fused search takes the whole radius at once.
+_MOSTLY_MISSED = 0.25
 
 #: As neighbours_kernel.compiled, and inlined where called: a call that
 #: passes arrays costs their reference counts, many times the work here.
@@ -80,7 +88,7 @@ def closest_to_lines(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: 
 
 
 def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radius: float,
-                          tries: int) -> np.ndarray:
+                          tries: int, near: float | None = None) -> np.ndarray:
     """The ``tries`` of the ``k`` nearest data points of each node within
     ``radius`` that lie closest to the line through it along its normal:
     ``closest_to_lines(index.data, index.nearest(p, k, radius)[1], p, normal, tries)``,
@@ -104,6 +112,14 @@ def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radi
     radius : float
         Points strictly within it only.
     tries : int
+    near : float, optional
+        A first radius (default: where k points lie on surfaces as dense
+        as the data, widened by ``_NEAR_RADIUS``): a node with more than k
+        points inside it takes its k nearest among them, and only those
+        points are weighed (about 30 within it, 50 within the radius on the
+        1 km city's ground). Where most nodes lately had too few inside it
+        (walls, edges), the whole radius is searched from the start; the
+        points chosen are the same either way.
 
     Returns
     -------
@@ -128,8 +144,12 @@ def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radi
     if k == 0 or len(p) == 0:
         return out
 
+    if near is None:
+        near = _NEAR_RADIUS * np.sqrt(k / (np.pi * index.density))
+    near = min(float(radius), float(near))
+
     def fill(rows: slice) -> None:
-        _near_lines(p, normal, rows.start, rows.stop, k, float(radius), index.x0, index.y0, index.cell,
+        _near_lines(p, normal, rows.start, rows.stop, k, float(radius), near, index.x0, index.y0, index.cell,
                     index.nx, index.ny, index.order, index.start, index.points, out)
 
     map_blocks(fill, thread_blocks(len(p), _BLOCK))
@@ -295,11 +315,14 @@ def _closest(data, near, p, normal, start, stop, out):
 
 
 @compiled
-def _near_lines(at, normal, start_row, stop_row, k, radius, x0, y0, cell, nx, ny, order, start, points, out):
+def _near_lines(at, normal, start_row, stop_row, k, radius, near, x0, y0, cell, nx, ny, order, start, points,
+                out):
     """Rows ``start_row:stop_row`` of :func:`candidates_near_lines`.
 
     Each node's points strictly within the radius go to rows of scratch
-    with their distances to the node and to the line. The few closest to
+    with their distances to the node and to the line; only those well
+    inside ``near`` where more than k are (searched within ``near`` first,
+    unless that lately failed for most nodes). The few closest to
     the line are then taken in turn among all of them, each kept if it is
     among the k nearest (fewer than k come before it in the order of
     :func:`core.neighbours_kernel.k_nearest`: distance, x, y, z, point
@@ -323,35 +346,64 @@ def _near_lines(at, normal, start_row, stop_row, k, radius, x0, y0, cell, nx, ny
     point, rank = np.empty(size, np.int64), np.empty(size, np.int64)
     best_key = np.empty((tries, 4))
     best_point = np.empty(tries, np.int64)
-    r2, box = radius * radius, radius * BOX
+    inner2 = (near * (1 - 1e-12)) * (near * (1 - 1e-12))
+    misses = 0.0  # how often, lately, too few points lay inside ``near``
     for q in range(start_row, stop_row):
         qx, qy, qz = at[q, 0], at[q, 1], at[q, 2]
-        ix0, ix1, iy0, iy1 = column_range(qx, qy, box, x0, y0, cell, nx, ny)
-        most = 0
-        for iy in range(iy0, iy1 + 1):
-            most += start[ix1 + 1 + nx * iy] - start[ix0 + nx * iy]
-        if most > size:
-            size = 2 * most
-            dist, line = np.empty(size), np.empty(size)
-            px, py, pz = np.empty(size), np.empty(size), np.empty(size)
-            point, rank = np.empty(size, np.int64), np.empty(size, np.int64)
         n0, n1, n2 = normal[q, 0], normal[q, 1], normal[q, 2]
-        found = 0
-        for iy in range(iy0, iy1 + 1):
-            for ix in range(ix0, ix1 + 1):
-                t, hi = rising_from(start, points, ix + nx * iy, qz - box)
-                while t < hi and points[2, t] <= qz + box:
-                    x, y, z = points[0, t], points[1, t], points[2, t]
-                    t += 1
-                    # scipy's sum, as k_nearest: (0 + dx^2) + dy^2 + dz^2.
-                    dx, dy, dz = x - qx, y - qy, z - qz
-                    d2 = (dx * dx + dy * dy) + dz * dz
-                    if d2 >= r2:
-                        continue
-                    dist[found], line[found] = np.sqrt(d2), _off_line(x, y, z, qx, qy, qz, n0, n1, n2)
-                    px[found], py[found], pz[found], point[found] = x, y, z, order[t - 1]
-                    rank[found] = found
-                    found += 1
+        reach = near if misses < _MOSTLY_MISSED else radius
+        while True:
+            r2, box = reach * reach, reach * BOX
+            ix0, ix1, iy0, iy1 = column_range(qx, qy, box, x0, y0, cell, nx, ny)
+            most = 0
+            for iy in range(iy0, iy1 + 1):
+                most += start[ix1 + 1 + nx * iy] - start[ix0 + nx * iy]
+            if most > size:
+                size = 2 * most
+                dist, line = np.empty(size), np.empty(size)
+                px, py, pz = np.empty(size), np.empty(size), np.empty(size)
+                point, rank = np.empty(size, np.int64), np.empty(size, np.int64)
+            # The points within reach: those well inside ``near`` from the
+            # front of the scratch, the others from its back, squared distances.
+            inner, outer = 0, 0
+            for iy in range(iy0, iy1 + 1):
+                for ix in range(ix0, ix1 + 1):
+                    t, hi = rising_from(start, points, ix + nx * iy, qz - box)
+                    while t < hi and points[2, t] <= qz + box:
+                        x, y, z = points[0, t], points[1, t], points[2, t]
+                        t += 1
+                        # scipy's sum, as k_nearest: (0 + dx^2) + dy^2 + dz^2.
+                        dx, dy, dz = x - qx, y - qy, z - qz
+                        d2 = (dx * dx + dy * dy) + dz * dz
+                        if d2 >= r2:
+                            continue
+                        if d2 < inner2:
+                            h = inner
+                            inner += 1
+                        else:
+                            outer += 1
+                            h = size - outer
+                        dist[h], px[h], py[h], pz[h], point[h] = d2, x, y, z, order[t - 1]
+            misses = 0.9 * misses + (0.1 if inner <= k else 0.0)
+            if inner > k or reach == radius:
+                break
+            reach = radius
+        if inner > k:
+            # The k nearest are among these: every other point is farther
+            # than ``near`` by more than round-off, so its distance (a
+            # square root) ties with none of theirs, and none of the others
+            # can be chosen or counted below.
+            found = inner
+        else:
+            for j in range(outer):
+                h = size - 1 - j
+                dist[inner + j], px[inner + j], py[inner + j], pz[inner + j] = dist[h], px[h], py[h], pz[h]
+                point[inner + j] = point[h]
+            found = inner + outer
+        for h in range(found):
+            dist[h] = np.sqrt(dist[h])
+            line[h] = _off_line(px[h], py[h], pz[h], qx, qy, qz, n0, n1, n2)
+            rank[h] = h
         kept = 0
         if found > k:
             # The closest to the line first, while each is among the k nearest.

@@ -60,8 +60,13 @@ def test_fused_search_chooses_the_points_of_the_two_steps(kernel, k, tries, radi
     for cell in (0.7, 1.5 * radius, 5.0):
         index = ColumnIndex(data, cell)
         expected = kernel.closest_to_lines(data, index.nearest(p, k, radius)[1], p, normal, tries)
-        got = kernel.candidates_near_lines(index, p, normal, k, radius, tries)
-        assert got.shape == expected.shape and np.array_equal(got, expected)
+        # The first radius from the density, and others: most nodes then
+        # have more than k points inside it, about half (so the search
+        # switches to the whole radius and back), or all or none; on this
+        # lattice many points lie at exactly 0.5 and 1.0.
+        for near in (None, 0.3, 0.5, 0.8, 1.0, radius):
+            got = kernel.candidates_near_lines(index, p, normal, k, radius, tries, near)
+            assert got.shape == expected.shape and np.array_equal(got, expected), near
     assert (expected[-50:] == len(data)).all() and (expected[:-50, 0] < len(data)).mean() > 0.8
 
 
@@ -77,8 +82,9 @@ def test_fused_search_chooses_the_points_of_numpy_from_a_kd_tree(kernel):
     normal = rng.normal(size=(8000, 3)) + [0, 0, 3]
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     expected = numpy_choice(data, nearest(search_tree(data), data, p, 24, 1.5)[1], p, normal, 3)
-    got = kernel.candidates_near_lines(ColumnIndex(data, 1.5), p, normal, 24, 1.5, 3)
-    assert np.array_equal(got, expected)
+    for near in (None, 0.5, 0.9):
+        got = kernel.candidates_near_lines(ColumnIndex(data, 1.5), p, normal, 24, 1.5, 3, near)
+        assert np.array_equal(got, expected), near
 
 
 def test_fused_search_on_fewer_points_than_asked(kernel):
