@@ -17,7 +17,8 @@ scatter matrices BLAS's to 4e-16 of their largest entry, and the normals of
 the flat planes agree to 2e-6 degrees. The projection makes the same moves,
 and the final nodes differ by at most 2e-13 m. For the 900 k building
 planes on one core, the compiled pass takes 0.07 s; numpy's gathers and
-products took 0.37 s.
+products took 0.37 s. The least axes (:func:`least_axis`) are compiled
+too, with numpy's power, arc cosine and cosines: 0.34 -> 0.05 s.
 """
 from __future__ import annotations
 
@@ -137,6 +138,10 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     >>> np.abs(normal).round(12).tolist(), values.round(12).tolist()
     ([[0.0, 0.0, 1.0]], [[0.5, 2.0, 3.0]])
     """
+    # Two compiled passes per matrix, the same numbers (core.mls_kernel).
+    found = jit.run("mls_kernel", "least_axis", cov, size=len(cov))
+    if found is not None:
+        return found
     a00, a11, a22 = cov[:, 0, 0], cov[:, 1, 1], cov[:, 2, 2]
     a01, a02, a12 = cov[:, 1, 0], cov[:, 2, 0], cov[:, 2, 1]
     mean = (a00 + a11 + a22) / 3

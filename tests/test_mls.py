@@ -42,6 +42,31 @@ def test_compiled_moments_are_numpys_to_the_last_bit(k, compiled, with_numpy):
         assert np.array_equal(one, other)
 
 
+def test_compiled_least_axes_are_numpys_to_the_last_bit(compiled, with_numpy):
+    # Scatters of random rows, of points on planes (a double smallest
+    # eigenvalue is not: two equal ones above it), on lines and at one
+    # point, multiples of the identity, zeros and a NaN: the same normals
+    # and eigenvalues, bit for bit, as the numpy passes give.
+    compiled("mls_kernel")
+    data, idx, w = random_rows(7)
+    scatters = [with_numpy(weighted_moments, data, idx, w)[1]]
+    rng = np.random.default_rng(7)
+    for dims in (2, 1, 0):
+        points = np.zeros((2000, 12, 3))
+        points[:, :, :dims] = rng.random((2000, 12, dims)) * 10
+        rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        points = points @ rotation + 1000.0
+        d = points - points.mean(axis=1, keepdims=True)
+        scatters.append(np.einsum("qki,qkj->qij", d, d) / 12)
+    scatters.append(np.array([np.zeros((3, 3)), 2 * np.eye(3), np.diag([1.0, 1.0, 4.0]), np.full((3, 3), np.nan)]))
+    cov = np.concatenate(scatters)
+    normal, values = least_axis(cov)
+    expected_normal, expected_values = with_numpy(least_axis, cov)
+    assert np.array_equal(normal, expected_normal, equal_nan=True)
+    assert np.array_equal(values, expected_values, equal_nan=True)
+    assert normal[-3].tolist() == [0.0, 0.0, 1.0]  # every cross product zero
+
+
 @pytest.mark.parametrize("switch", ["0", "1"])
 def test_planes_of_points_on_a_tilted_roof_are_that_roof(switch, monkeypatch, compiled):
     # A roof z = 0.4 x - 0.2 y + 30 sampled at 10 points/m², at random in plan:
