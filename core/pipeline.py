@@ -309,9 +309,11 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
 
     report(0.6, "Eliminating unsupported boundary voxels")
     building_search = building_search.result()
-    eliminate_unsupported(labels, grid, building, params.support, extrude_roofs=airborne,
-                          is_cancelled=is_cancelled, search=building_search)
-    make_well_composed(labels, is_cancelled=is_cancelled)
+    # Dropping whole blocks left the labels well-composed (core.blocks.drop_blocks):
+    # only the cubes around the voxels eliminated need the repair.
+    eliminated = eliminate_unsupported(labels, grid, building, params.support, extrude_roofs=airborne,
+                                       is_cancelled=is_cancelled, search=building_search)
+    make_well_composed(labels, is_cancelled=is_cancelled, changed=eliminated)
     if is_cancelled is not None and is_cancelled():
         raise Cancelled()
     blocks, table, dropped_after = blocks_above_thresholds(labels, grid, *thresholds)

@@ -138,6 +138,40 @@ def random_model(seed, shape=(24, 22, 14)):
     return g, labels
 
 
+def repaired_both_ways(seed):
+    """A random model's labels after the drop of its small blocks and the
+    removal of random building voxels next to the air (as the elimination
+    removes them), repaired on the whole grid and around the removed voxels;
+    the voxels each repair filled."""
+    from core.blocks import blocks_above_thresholds
+    from core.manifold import _all_critical_cubes
+
+    g, labels = random_model(seed)
+    blocks_above_thresholds(labels, g, 2.5, 2.0, 3.0)
+    assert len(_all_critical_cubes(labels)) == 0  # dropping whole blocks keeps the labels well-composed
+    rng = np.random.default_rng(seed)
+    near_air = ndimage.binary_dilation(labels == AIR) & (labels == BUILDING)
+    removed = np.flatnonzero(near_air & (rng.random(labels.shape) < 0.3))
+    labels.reshape(-1)[removed] = AIR
+    whole, around = labels.copy(), labels.copy()
+    added = (make_well_composed(whole), make_well_composed(around, changed=removed))
+    assert len(_all_critical_cubes(around)) == 0
+    return whole, around, added
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_repair_around_changed_voxels_fills_what_the_whole_grid_repair_fills(seed):
+    # The pipeline repairs after the elimination only around the voxels it
+    # removed, the labels being well-composed before.
+    whole, around, (added_whole, added_around) = repaired_both_ways(seed)
+    assert added_around == added_whole and np.array_equal(around, whole)
+
+
+def test_repair_around_changed_voxels_has_work_to_do():
+    # The cases above are not trivial: most of them fill voxels.
+    assert sum(repaired_both_ways(seed)[2][0] > 0 for seed in range(6)) >= 4
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_every_region_surface_is_closed_manifold_and_conforming(seed):
     g, labels = random_model(seed)
@@ -202,8 +236,11 @@ def test_elimination_keeps_voxels_sharing_enough_volume():
     roofs = np.column_stack([xs.ravel(), yr.ravel(), np.full(xs.size, 3.9)])
     roofs = roofs[((roofs[:, 0] > 2) & (roofs[:, 0] < 4.5)) | ((roofs[:, 0] > 7.3) & (roofs[:, 0] < 9.0))]
     pts = np.concatenate([wall(2.0), wall(4.5), wall(7.3), wall(9.0), roofs])
+    before = labels.copy()
     removed = eliminate_unsupported(labels, g, pts)
-    assert removed == 3 * 3
+    assert len(removed) == 3 * 3
+    # The voxels it returns are those that became air, ascending.
+    assert np.array_equal(removed, np.flatnonzero((before == BUILDING) & (labels == AIR)))
     assert (labels[9, :, 1:4] == AIR).all()
     assert (labels[2:5, :, 1:4] == BUILDING).all() and (labels[7:9, :, 1:4] == BUILDING).all()
 
@@ -237,10 +274,10 @@ def test_airborne_walls_are_supported_by_the_roof_edge_above():
     xs, ys = np.meshgrid(np.arange(2.05, 6, 0.1), np.arange(0.05, 3, 0.1), indexing="ij")
     roof = np.column_stack([xs.ravel(), ys.ravel(), np.full(xs.size, 5.8)])
     g, labels = model()
-    assert eliminate_unsupported(labels, g, roof, extrude_roofs=True) == 0
+    assert len(eliminate_unsupported(labels, g, roof, extrude_roofs=True)) == 0
     # Without the extrusion rule every wall voxel below the roof voxel would go.
     g, labels = model()
-    assert eliminate_unsupported(labels, g, roof, extrude_roofs=False) > 0
+    assert len(eliminate_unsupported(labels, g, roof, extrude_roofs=False)) > 0
     assert (labels[2, :, 1:5] == AIR).all()
 
 
