@@ -27,6 +27,26 @@ def test_critical_cubes_are_numpys(with_numpy, kernel, seed):
     assert min(shape) < 2 or len(expected) > 0
 
 
+@pytest.mark.parametrize("seed", range(12))
+def test_critical_cubes_around_voxels_are_numpys_and_the_whole_grids_ones_there(with_numpy, kernel, seed):
+    """The critical cubes holding one of some voxels (at the grid's faces
+    and corners too, repeated, or none): numpy's, and those of the whole
+    grid's that hold one of them."""
+    rng = np.random.default_rng(100 + seed)
+    shape = tuple(int(v) for v in rng.integers(1, 30, 3))
+    labels = rng.choice(np.array([GROUND, BUILDING, AIR], np.uint8), shape, p=[0.2, 0.3, 0.5])
+    cells = rng.integers(0, labels.size, int(rng.integers(0, 60)))
+    cells = np.concatenate([cells, cells[:5], [0, labels.size - 1]]).astype(np.int64)
+    expected = with_numpy(manifold._critical_cubes_around, labels, cells)
+    got = manifold._critical_cubes_around(labels, cells)
+    assert got.dtype == np.int64 and np.array_equal(got, expected)
+    whole = manifold._all_critical_cubes(labels)
+    ijk = np.column_stack(np.unravel_index(whole, shape))
+    cell_ijk = np.column_stack(np.unravel_index(cells, shape))
+    holds = ((cell_ijk[None, :, :] - ijk[:, None, :] >= 0) & (cell_ijk[None, :, :] - ijk[:, None, :] <= 1)).all(axis=2)
+    assert np.array_equal(got, whole[holds.any(axis=1)])
+
+
 def test_repair_gives_the_same_labels(with_numpy, kernel):
     """The whole well-composed repair, with the kernel and without it."""
     rng = np.random.default_rng(3)
