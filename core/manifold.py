@@ -93,7 +93,8 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
     cubes holding one of them can be critical, and only those are looked at
     first instead of the whole grid. The same voxels are filled (the cubes
     found critical are the same, in the same order). After the elimination
-    of the 1 km city: 0.14 s for the grid, a few milliseconds so.
+    of the 1 km city: 0.16 s for the whole grid's cubes, 0.02 s for those
+    around its 365 k voxels.
 
     Returns
     -------
