@@ -20,6 +20,11 @@ points of that city in numpy) take one such pass: 0.007-0.015 s.
 Every number is numpy's: the same floor of the same quotient, clipped the
 same way; the voxel number is an integer below 2**53, which numpy's float
 product and the integer one here give exactly.
+
+The tiled run (:mod:`core.tiles`) orders all the points by their column
+along x: a counting sort (:func:`column_order`) writes that order in one
+pass, where numpy's stable argsort of the 16-bit columns, a radix sort,
+and its int64 result took 0.5-1.2 s for the 2 km city's 35 M ground points.
 """
 from __future__ import annotations
 
@@ -98,13 +103,29 @@ def column_of(points: np.ndarray, origin: np.ndarray, voxel_size: float, shape: 
     return column
 
 
+def column_order(column: np.ndarray, n: int, dtype: type) -> np.ndarray:
+    """``np.argsort(column, kind="stable").astype(dtype)`` for columns ``0..n-1``.
+
+    Examples
+    --------
+    >>> column_order(np.array([2, 0, 2, 1, 0], np.uint16), 3, np.int32).tolist()
+    [1, 4, 3, 0, 2]
+    """
+    order = np.empty(len(column), dtype=dtype)
+    _counting_order(np.ascontiguousarray(column), n, order)
+    return order
+
+
 def warm_up() -> int:
-    """Compile for the types :mod:`core.grid` passes."""
+    """Compile for the types :mod:`core.grid` and :mod:`core.tiles` pass."""
     cells = occupied_cells(np.array([[0.5, 2.5, 1.2], [3.5, 0.5, 0.5], [0.1, 2.9, 1.0]]), np.zeros(3),
                            1.0, (4, 3, 2))
     assert cells.tolist() == [[3, 0, 0], [0, 2, 1]], cells
     column = column_of(np.array([[0.5, 2.5, 1.2], [-1.0, 9.0, 0.0]]), np.zeros(3), 1.0, (4, 3, 2))
     assert column.tolist() == [2, 2], column
+    for keys in (np.array([1, 0, 1], np.uint16), np.array([1, 0, 1], np.int32)):
+        for dtype in (np.int32, np.int64):
+            assert column_order(keys, 2, dtype).tolist() == [1, 0, 2]
     return 1
 
 
@@ -232,3 +253,18 @@ def _columns(points, start, stop, origin, voxel_size, nx, ny, column):
         for q in range(count):
             column[first + q] = (_cell(x[q], origin[0], voxel_size, nx - 1.0) * ny
                                  + _cell(y[q], origin[1], voxel_size, ny - 1.0))
+
+
+@compiled
+def _counting_order(column, n, order):
+    """:func:`column_order` into ``order``: each point after the earlier
+    points of its column, the columns in turn."""
+    start = np.zeros(n + 1, np.int64)
+    for c in column:
+        start[c + 1] += 1
+    for c in range(n):
+        start[c + 1] += start[c]
+    for p in range(len(column)):
+        c = column[p]
+        order[start[c]] = p
+        start[c] += 1

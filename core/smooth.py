@@ -219,6 +219,8 @@ def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: fl
     def step(on_surface: np.ndarray, following: np.ndarray) -> CatmullClarkStep:
         return CatmullClarkStep(model.quads.compress(on_surface & touching(following, model.quads), axis=0), n)
 
+    # The two steps share nothing: the ground's is made on the background
+    # thread (idle by now) while the blocks' is made here, mostly on one core.
     ground = in_background(step, (a == GROUND_REGION) | (b == GROUND_REGION), follow_ground)
     blocks = step((a > 0) | (b > 0), follow_blocks)
     ground = ground.result()

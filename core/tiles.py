@@ -40,6 +40,7 @@ from typing import Callable
 
 import numpy as np
 
+from . import jit
 from .blocks import BlockTable
 from .errors import UrbanvoxError
 from .grid import BIN_CHUNK, GridWindow, available_memory
@@ -435,7 +436,10 @@ class _Cropper:
         index = np.int32 if max(len(ground), len(building)) < 2**31 else np.int64
         for points in (ground, building):
             i = _column(points[:, 0], domain.lower[0], h, domain.shape[0])
-            order = np.argsort(i, kind="stable").astype(index)
+            # The same order in one compiled pass (core.grid_kernel).
+            order = jit.run("grid_kernel", "column_order", i, domain.shape[0], index, size=len(i))
+            if order is None:
+                order = np.argsort(i, kind="stable").astype(index)
             j = _column(points[:, 1], domain.lower[1], h, domain.shape[1])[order]
             self.sets.append((points, order, i[order], j))
 

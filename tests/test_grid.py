@@ -121,3 +121,22 @@ def test_empty_point_set():
     assert grid.occupied_cells(np.zeros((0, 3))).shape == (0, 3)
     assert not grid.occupancy(np.zeros((0, 3))).any()
 
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.int32])
+def test_the_tiles_order_of_points_by_column_is_a_stable_argsort(binning, dtype):
+    # The tiled run sorts every point by its column along x
+    # (core.tiles._Cropper): the kernel's counting sort gives numpy's stable
+    # order, runs of equal columns kept in point order, as the index type asked.
+    from core import jit
+
+    rng = np.random.default_rng(11)
+    column = np.concatenate([np.repeat(np.arange(300), rng.integers(0, 40, 300)),
+                             rng.integers(0, 300, 5000)]).astype(dtype)
+    expected = np.argsort(column, kind="stable")
+    for index in (np.int32, np.int64):
+        got = jit.run("grid_kernel", "column_order", column, 300, index, size=len(column))
+        if binning == "numpy":
+            assert got is None
+            continue
+        assert got.dtype == index and np.array_equal(got, expected)
