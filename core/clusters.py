@@ -19,10 +19,15 @@ import numpy as np
 from scipy import ndimage
 
 from .blocks import BlockTable
-from .grid import VoxelGrid
+from .grid import VoxelGrid, bounds
 from .measure import BlockMeasures
+from .parallel import map_blocks, row_blocks
 from .reconstruction import Reconstruction
 from .surface import SurfaceModel
+
+#: Points per block of :func:`split_clusters`: a few MB of temporaries, and blocks long
+#: enough that the two threads do not wait on each other for the GIL (1 << 16: 1.05 s, 0.9 s so).
+_ROWS = 1 << 18
 
 
 def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
@@ -39,22 +44,41 @@ def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
     >>> [c.tolist() for c in split_clusters([pts[:2], pts[2:]], 50.0)]
     [[0, 0], [1]]
     """
-    # The cells' two indices as separate arrays: numpy's reductions along
-    # axis 0 of (N, 2) tables stride through them.
-    cells = [[np.floor(points[:, k] / gap).astype(np.int64) for k in range(2)] for points in parts]
-    present = [c for c, points in zip(cells, parts) if len(points)]
-    lower = [min(c[k].min() for c in present) for k in range(2)]
-    for c in cells:
-        c[0] -= lower[0]
-        c[1] -= lower[1]
-    shape = tuple(max(c[k].max() for c in present) + 1 for k in range(2))
+    present = [points for points in parts if len(points)]
+    if not present:
+        return [np.zeros(0, dtype=np.int32) for _ in parts]
+    # The cells of the lowest and highest coordinates bound every point's
+    # (floor and the division are monotone).
+    lowest, highest = bounds(present)
+    lower = np.floor(lowest[:2] / gap).astype(np.int64)
+    shape = tuple(int(v) for v in np.floor(highest[:2] / gap).astype(np.int64) - lower + 1)
+
+    def cells(points: np.ndarray, rows: slice) -> tuple[np.ndarray, np.ndarray]:
+        return tuple(np.floor(points[rows, k] / gap).astype(np.int64) - lower[k] for k in range(2))
+
+    def occupied_by(points: np.ndarray, rows: slice) -> np.ndarray:
+        mask = np.zeros(shape, dtype=bool)
+        mask[cells(points, rows)] = True
+        return mask
+
+    # Blocks of points on all cores, each marking a grid of its own (a few
+    # kB): no table of every point's cells, 4 arrays of 8 bytes a point (the
+    # 2 km city's 50 M points: 2.8-3.4 s -> 0.9 s, most of it fresh pages).
     occupied = np.zeros(shape, dtype=bool)
-    for i, j in cells:
-        occupied[i, j] = True
+    for points in present:
+        for mask in map_blocks(lambda rows, points=points: occupied_by(points, rows),
+                               row_blocks(len(points), _ROWS)):
+            occupied |= mask
     labels, n = ndimage.label(occupied, structure=np.ones((3, 3), bool))
     if n <= 1:
-        return [np.zeros(len(i), dtype=labels.dtype) for i, _ in cells]
-    return [labels[i, j] - 1 for i, j in cells]
+        return [np.zeros(len(points), dtype=labels.dtype) for points in parts]
+    out = [np.empty(len(points), dtype=labels.dtype) for points in parts]
+    for points, cluster in zip(parts, out):
+        def fill(rows: slice, points: np.ndarray = points, cluster: np.ndarray = cluster) -> None:
+            cluster[rows] = labels[cells(points, rows)] - 1
+
+        map_blocks(fill, row_blocks(len(points), _ROWS))
+    return out
 
 
 def merge(parts: list[Reconstruction]) -> Reconstruction:

@@ -25,7 +25,7 @@ from .parallel import map_blocks, row_blocks
 #: guard; benchmarks/run.py prints the measured peak of every stage.
 BYTES_PER_VOXEL = 16
 
-#: Points per block of :func:`_bounds` (a few MB).
+#: Points per block of :func:`bounds` (a few MB).
 _BOUND_ROWS = 1 << 16
 #: Points binned at once by :meth:`VoxelGrid.occupancy`: the float temporaries of a
 #: chunk (~2 MB) stay in the CPU cache, and the memory used does not grow with the cloud.
@@ -253,7 +253,7 @@ class GridWindow:
         extent), with one ground layer under the lowest point and the paper's
         empty top row."""
         h = voxel_size
-        lower, upper = _bounds([points for points in (ground, building) if len(points)])
+        lower, upper = bounds([points for points in (ground, building) if len(points)])
         if extent is not None:
             lower[:2] = extent[:2]
             upper[:2] = np.asarray(extent[2:]) - 1e-9 * h  # the last column ends at xmax
@@ -276,7 +276,7 @@ class GridWindow:
                           (self.start[0] + int(i0), self.start[1] + int(j0)))
 
 
-def _bounds(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+def bounds(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     """Lowest and highest coordinates of the points of all ``arrays`` (N, 3).
 
     A block of rows at a time on all cores, one column at a time: numpy's
@@ -286,7 +286,7 @@ def _bounds(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 
     Examples
     --------
-    >>> _bounds([np.array([[0.0, 5, 1], [2, -1, 3]]), np.array([[-4.0, 0, 9]])])
+    >>> bounds([np.array([[0.0, 5, 1], [2, -1, 3]]), np.array([[-4.0, 0, 9]])])
     (array([-4., -1.,  1.]), array([2., 5., 9.]))
     """
     def extremes(points: np.ndarray, rows: slice) -> list[float]:
