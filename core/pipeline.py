@@ -423,9 +423,14 @@ def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):
     cells = building_cells[above]
     has_building = np.zeros((nx, ny), bool)
     has_building[cells[:, 0], cells[:, 1]] = True
-    highest = np.zeros((nx, ny), np.int64)
-    np.maximum.at(highest, (cells[:, 0], cells[:, 1]), cells[:, 2])
-    return roof_hole_columns(has_building, ground_observed, highest, int(max_hole_cells))
+    # Each column's highest building cell: np.maximum.at in one compiled pass
+    # (0.15 s of numpy's for the 1 km city's cells), in floats, exact for cell numbers.
+    column = cells[:, 0] * ny + cells[:, 1]
+    highest = np.zeros(nx * ny)
+    if jit.run("blocks_kernel", "extremes_into", highest, column, cells[:, 2], True, size=len(cells)) is None:
+        np.maximum.at(highest, column, cells[:, 2])
+    return roof_hole_columns(has_building, ground_observed, highest.reshape(nx, ny).astype(np.int64),
+                             int(max_hole_cells))
 
 
 def _inside(points: np.ndarray, extent) -> np.ndarray:

@@ -244,11 +244,28 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
 
 
 def _per_block(ids: np.ndarray, values: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest and largest ``values`` of each block (or group) ``1..n`` (ids ``ids``)."""
+    """Smallest and largest ``values`` of each block (or group) ``1..n`` (ids
+    ``ids``); the int64 extremes for a block without values.
+
+    Reduced over the runs of equal ids (sorted first if they are not: the
+    footprint columns are), not with ``np.minimum.at``, which took 3 ms per
+    call on a tile's 40 k columns (four calls per tile).
+
+    Examples
+    --------
+    >>> lo, hi = _per_block(np.array([2, 1, 2, 2]), np.array([5, 7, 3, 9]), 3)
+    >>> lo.tolist()[:2], hi.tolist()[:2], bool(lo[2] > hi[2])
+    ([7, 3], [7, 9], True)
+    """
     lo = np.full(n + 1, np.iinfo(np.int64).max)
     hi = np.full(n + 1, np.iinfo(np.int64).min)
-    np.minimum.at(lo, ids, values)
-    np.maximum.at(hi, ids, values)
+    if len(ids):
+        if not (ids[1:] >= ids[:-1]).all():
+            order = np.argsort(ids, kind="stable")
+            ids, values = ids[order], values[order]
+        starts = np.flatnonzero(np.concatenate([[True], ids[1:] != ids[:-1]]))
+        lo[ids[starts]] = np.minimum.reduceat(values, starts)
+        hi[ids[starts]] = np.maximum.reduceat(values, starts)
     return lo[1:], hi[1:]
 
 
