@@ -43,10 +43,10 @@ def test_compiled_moments_are_numpys_to_the_last_bit(k, compiled, with_numpy):
 
 
 def test_compiled_least_axes_are_numpys_to_the_last_bit(compiled, with_numpy):
-    # Scatters of random rows, of points on planes (a double smallest
-    # eigenvalue is not: two equal ones above it), on lines and at one
-    # point, multiples of the identity, zeros and a NaN: the same normals
-    # and eigenvalues, bit for bit, as the numpy passes give.
+    # Scatters of random rows, of points on planes, on lines (a double
+    # smallest eigenvalue) and at one point (zeros), a multiple of the
+    # identity, a double largest eigenvalue and a NaN: the same normals and
+    # eigenvalues, bit for bit, as the numpy passes give.
     compiled("mls_kernel")
     data, idx, w = random_rows(7)
     scatters = [with_numpy(weighted_moments, data, idx, w)[1]]
