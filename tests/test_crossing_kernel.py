@@ -3,7 +3,7 @@ it stands in for (core.intersect): the same crossings, bit for bit."""
 import numpy as np
 import pytest
 
-from core.intersect import _balls, _crossing_quads, _pair_rows
+from core.intersect import _balls, _Cells, _crossing_quads, _pair_rows
 from test_intersect import _reference_edges_cross
 
 
@@ -58,7 +58,8 @@ def _crossings(positions, quads, moved, seeds, near=None):
     where both triangles are in focus)."""
     centre, reach = _balls(positions, quads)
     diagonal, split = np.zeros(len(quads), bool), np.zeros(len(quads), bool)
-    pairs = _crossing_quads(positions, quads, diagonal, split, centre, reach, seeds, moved, near, 16, None)
+    cells = _Cells(centre, 2 * reach.max())
+    pairs = _crossing_quads(positions, quads, diagonal, split, centre, reach, seeds, moved, near, cells, 16, None)
     return {tuple(sorted(map(tuple, p))) for p in pairs.tolist()}
 
 
