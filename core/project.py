@@ -39,7 +39,7 @@ from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
 from .topology import changed_rows, touching
-from .vectors import cross, dot, length
+from .vectors import dot, length
 
 #: Data points examined around each node, planes tried per node.
 _NEAR, _TRIES = 24, 3
