@@ -32,7 +32,7 @@ import numpy as np
 
 from .neighbours_kernel import compiled
 from .parallel import counted_then_listed, map_blocks, row_blocks, thread_blocks, thread_count
-from .surface_kernel import bit_count
+from .surface_kernel import bit_count, rank_starts
 
 #: Fewest points per thread of the binning: a bitmap's fresh pages and a
 #: thread's start cost more than fewer points take.
@@ -260,10 +260,7 @@ def _counting_order(column, n, order):
     """:func:`column_order` into ``order``: each point after the earlier
     points of its column, the columns in turn."""
     start = np.zeros(n + 1, np.int64)
-    for c in column:
-        start[c + 1] += 1
-    for c in range(n):
-        start[c + 1] += start[c]
+    rank_starts(column, start)
     for p in range(len(column)):
         c = column[p]
         order[start[c]] = p

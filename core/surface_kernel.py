@@ -126,7 +126,7 @@ def sides_by_rank(quads: np.ndarray, regions: np.ndarray, rank: np.ndarray,
     quads, regions = np.ascontiguousarray(quads), np.ascontiguousarray(regions)
     rank = np.ascontiguousarray(rank, dtype=np.int64)
     counts = np.zeros(n_ranks + 1, np.int64)
-    _count_ranks(rank, counts)
+    rank_starts(rank, counts)
     faces = np.empty((int(counts[-1]), quads.shape[1]), dtype=quads.dtype)
     region = np.empty(len(faces), np.int32)
     _place_sides(quads, regions, rank, counts, faces, region)
@@ -150,8 +150,10 @@ def warm_up() -> int:
 
 
 @compiled
-def _count_ranks(rank, counts):
-    """Where each rank's rows start (``counts[r]``), and their number (``counts[-1]``)."""
+def rank_starts(rank, counts):
+    """Where each rank's rows start (``counts[r]``, zeros given) in a
+    counting sort of ``rank`` (-1: none), and their number (``counts[-1]``);
+    also :func:`core.grid_kernel.column_order`'s."""
     for e in range(len(rank)):
         if rank[e] >= 0:
             counts[rank[e]] += 1
