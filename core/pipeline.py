@@ -44,7 +44,7 @@ from .grid import GridWindow, check_face_memory, check_memory
 from .ground import GroundLevel, NearGround, column_ground_level
 from .heap import reusing_freed_memory
 from .manifold import make_well_composed, repair_height_field
-from .measure import measure_blocks
+from .measure import extreme_per_block, measure_blocks
 from .neighbours import nearest_distance, point_index
 from .parallel import in_background
 from .project import COLUMN_VOXELS, project_nodes
@@ -423,12 +423,10 @@ def _roof_seeds(grid, building_cells, top_k, ground_observed, max_hole_cells):
     cells = building_cells[above]
     has_building = np.zeros((nx, ny), bool)
     has_building[cells[:, 0], cells[:, 1]] = True
-    # Each column's highest building cell: np.maximum.at in one compiled pass
-    # (0.08 s of numpy's for the 1 km city's 752 k cells), in floats, exact for cell numbers.
-    column = cells[:, 0] * ny + cells[:, 1]
-    highest = np.zeros(nx * ny)
-    if jit.run("blocks_kernel", "extremes_into", highest, column, cells[:, 2], True, size=len(cells)) is None:
-        np.maximum.at(highest, column, cells[:, 2])
+    # Each column's highest building cell, in one compiled pass where np.maximum.at
+    # took 0.08 s for the 1 km city's 752 k cells (floats: exact for cell numbers).
+    highest = extreme_per_block(cells[:, 0] * ny + cells[:, 1], cells[:, 2], nx * ny - 1, largest=True,
+                                initial=0.0)
     return roof_hole_columns(has_building, ground_observed, highest.reshape(nx, ny).astype(np.int64),
                              int(max_hole_cells))
 
