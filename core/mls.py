@@ -18,7 +18,8 @@ the flat planes agree to 2e-6 degrees. The projection makes the same moves,
 and the final nodes differ by at most 2e-13 m. For the 900 k building
 planes on one core, the compiled pass takes 0.07 s; numpy's gathers and
 products took 0.37 s. The least axes (:func:`least_axis`) are compiled
-too, with numpy's power, arc cosine and cosines: 0.34 -> 0.05 s.
+too, with numpy's power, arc cosine and cosines: 0.34 -> 0.04 s for the
+same 900 k planes on one core.
 """
 from __future__ import annotations
 
@@ -182,8 +183,6 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
              a02 * v[0] + a12 * v[1] + a22 * v[2]]
     refined = v[0] * cov_v[0] + v[1] * cov_v[1] + v[2] * cov_v[2]
     return null_vector(refined), values
-
-
 
 
 class PlaneCache:
