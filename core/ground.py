@@ -40,14 +40,19 @@ class GroundLevel:
     observed: np.ndarray
 
 
-def column_ground_level(grid: VoxelGrid, ground_points: np.ndarray) -> GroundLevel:
+def column_ground_level(grid: VoxelGrid, ground_points: np.ndarray, world: bool = False) -> GroundLevel:
     """Ground height of every column from ground points.
 
     Parameters
     ----------
     grid : VoxelGrid
     ground_points : ndarray of shape (G, 3)
-        Local coordinates of the ground points.
+        Local coordinates of the ground points, or world ones if ``world``.
+    world : bool
+        Take ``ground_points`` in world coordinates: the grid's offset is
+        subtracted a chunk of points at a time, the same numbers as for
+        ``ground_points - grid.offset`` without that copy of them all (the
+        tiled run's 840 MB for the 2 km city's 35 M ground points).
 
     Returns
     -------
@@ -69,9 +74,12 @@ def column_ground_level(grid: VoxelGrid, ground_points: np.ndarray) -> GroundLev
         raise UrbanvoxError("No ground point: set the ground classes (GROUND_CLASSES) "
                             "to the codes your data uses for the ground.")
     nx, ny, _ = grid.shape
-    column = grid.column_of(ground_points)
+    if world:
+        column, height = _local_columns(grid, ground_points)
+    else:
+        column, height = grid.column_of(ground_points), ground_points[:, 2]
     counts = np.bincount(column, minlength=nx * ny)
-    sums = np.bincount(column, weights=ground_points[:, 2], minlength=nx * ny)
+    sums = np.bincount(column, weights=height, minlength=nx * ny)
     observed = counts > 0
     z = np.full(nx * ny, np.nan)
     z[observed] = sums[observed] / counts[observed]
@@ -86,6 +94,25 @@ def column_ground_level(grid: VoxelGrid, ground_points: np.ndarray) -> GroundLev
     top_k = np.floor((z - grid.origin[2]) / grid.voxel_size - 0.5).astype(np.int64)
     np.clip(top_k, 0, grid.shape[2] - 1, out=top_k)
     return GroundLevel(z=z, top_k=top_k, observed=observed)
+
+
+def _local_columns(grid: VoxelGrid, points: np.ndarray, chunk: int = 1 << 20) -> tuple[np.ndarray, np.ndarray]:
+    """Column number and local height of points given in world coordinates.
+
+    Examples
+    --------
+    >>> g = VoxelGrid(np.array([100.0, 200.0, 10.0]), np.zeros(3), 1.0, (3, 3, 5))
+    >>> column, height = _local_columns(g, np.array([[100.5, 202.5, 11.0], [102.5, 200.5, 12.5]]))
+    >>> column.tolist(), height.tolist()
+    ([2, 6], [1.0, 2.5])
+    """
+    column = np.empty(len(points), dtype=np.int64)
+    height = np.empty(len(points), dtype=np.float64)
+    for start in range(0, len(points), chunk):
+        local = points[start:start + chunk] - grid.offset
+        column[start:start + len(local)] = grid.column_of(local)
+        height[start:start + len(local)] = local[:, 2]
+    return column, height
 
 
 def column_ceiling(grid: VoxelGrid, ground_points: np.ndarray) -> np.ndarray:

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Callable
 
 import numpy as np
@@ -290,7 +291,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     # On a thread of its own while the points are sorted by column (the
     # 2 km city: the level 1.9 s, 0.5 s of it the gaps' fill, the cropper
     # 1.7 s).
-    domain_level = in_background(column_ground_level, domain.grid(h), ground - domain.lower)
+    domain_level = in_background(partial(column_ground_level, world=True), domain.grid(h), ground)
     crop = _Cropper(ground, building, domain, h)
     level = domain_level.result()
     level = GroundLevel(level.z, repair_height_field(level.top_k), level.observed)

@@ -96,6 +96,26 @@ def test_ground_level_is_interpolated_under_roofs():
     assert np.array_equal(level.top_k, np.floor(z - 0.5).astype(int))
 
 
+def test_ground_level_from_world_coordinates_is_bit_for_bit_the_local_one():
+    # The tiled run hands the domain's world points over, shifted to local
+    # coordinates a chunk at a time: every number must be the local run's.
+    from core.grid import VoxelGrid
+    from core.ground import _local_columns
+    rng = np.random.default_rng(3)
+    offset = np.array([2.6e6 + 0.37, 1.2e6 + 0.11, 41.3])
+    g = VoxelGrid(offset, np.zeros(3), 0.7, (40, 30, 60))
+    pts = offset + rng.uniform([0, 0, 5], [28, 21, 9], size=(2000, 3))  # columns left empty too
+    local = column_ground_level(g, pts - offset)
+    world = column_ground_level(g, pts, world=True)
+    assert not local.observed.all()
+    assert np.array_equal(world.z, local.z)
+    assert np.array_equal(world.top_k, local.top_k)
+    assert np.array_equal(world.observed, local.observed)
+    column, height = _local_columns(g, pts, chunk=7)  # many chunks, a short last one
+    assert np.array_equal(column, g.column_of(pts - offset))
+    assert np.array_equal(height, (pts - offset)[:, 2])
+
+
 def test_ground_ceiling_bounds_every_column_from_above():
     from core.ground import column_ceiling
 
