@@ -15,7 +15,8 @@ only the written words (7 % of them there): 0.014-0.017 s (190-230 M
 points/s) where zeroed bitmaps read whole took 0.019-0.021 s in the same
 hour (0.025-0.035 s on other days: this machine's memory speed varies). Column numbers
 (:meth:`core.grid.VoxelGrid.column_of`, 0.1-0.2 s for the 7.2 M ground
-points of that city in numpy) take one such pass: 0.007-0.015 s.
+points of that city in numpy) take one such pass: 0.007-0.015 s, and so
+do the tiled run's cells along x and along y (:func:`axis_cells`).
 
 Every number is numpy's: the same floor of the same quotient, clipped the
 same way; the voxel number is an integer below 2**53, which numpy's float
@@ -103,6 +104,20 @@ def column_of(points: np.ndarray, origin: np.ndarray, voxel_size: float, shape: 
     return column
 
 
+def axis_cells(x: np.ndarray, lower: float, h: float, n: int, out: np.ndarray) -> np.ndarray:
+    """:func:`core.tiles._column` into ``out``: the cell of each coordinate
+    ``x`` along one axis of ``n`` cells of side ``h`` from ``lower``.
+
+    Examples
+    --------
+    >>> axis_cells(np.array([0.5, 2.5, -1.0, 9.0]), 0.0, 1.0, 3, np.empty(4, np.uint16)).tolist()
+    [0, 2, 0, 2]
+    """
+    map_blocks(lambda rows: _axis_cells(x, float(lower), float(h), n - 1.0, rows.start, rows.stop, out),
+               thread_blocks(len(x)))
+    return out
+
+
 def column_order(column: np.ndarray, n: int, dtype: type) -> np.ndarray:
     """``np.argsort(column, kind="stable").astype(dtype)`` for columns ``0..n-1``.
 
@@ -123,6 +138,9 @@ def warm_up() -> int:
     assert cells.tolist() == [[3, 0, 0], [0, 2, 1]], cells
     column = column_of(np.array([[0.5, 2.5, 1.2], [-1.0, 9.0, 0.0]]), np.zeros(3), 1.0, (4, 3, 2))
     assert column.tolist() == [2, 2], column
+    xyz = np.array([[0.5, 2.5, 1.2], [-1.0, 9.0, 0.0]])
+    for dtype in (np.uint16, np.int32):
+        assert axis_cells(xyz[:, 1], 0.0, 1.0, 3, np.empty(2, dtype)).tolist() == [2, 2]
     for keys in (np.array([1, 0, 1], np.uint16), np.array([1, 0, 1], np.int32)):
         for dtype in (np.int32, np.int64):
             assert column_order(keys, 2, dtype).tolist() == [1, 0, 2]
@@ -134,6 +152,13 @@ def _cell(x, low, voxel_size, top):
     """One coordinate's cell as :meth:`core.grid.VoxelGrid.cell_of` makes it:
     the floor of ``(x - low) / voxel_size``, clipped to ``0..top``."""
     return int(min(max(np.floor((x - low) / voxel_size), 0.0), top))
+
+
+@compiled
+def _axis_cells(x, low, voxel_size, top, start, stop, out):
+    """Rows ``start:stop`` of :func:`axis_cells`."""
+    for q in range(start, stop):
+        out[q] = _cell(x[q], low, voxel_size, top)
 
 
 @compiled

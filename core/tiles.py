@@ -481,6 +481,10 @@ def _column(x: np.ndarray, lower: float, h: float, n: int) -> np.ndarray:
     of 50 M points took 2.5 s), and the same order.
     """
     out = np.empty(len(x), dtype=np.uint16 if n < 2**16 - 1 else np.int32)
+    # The same cells in one pass on all cores (core.grid_kernel): 1.1 -> 0.1 s
+    # for the 2 km city's 50 M points' x.
+    if jit.run("grid_kernel", "axis_cells", x, lower, h, n, out, size=len(x)) is not None:
+        return out
     # A chunk at a time: the temporaries stay in the cache instead of
     # faulting in fresh pages for every point (0.23 -> 0.14 s for the 2 km
     # city's 35 M ground points' x).

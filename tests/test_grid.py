@@ -140,3 +140,25 @@ def test_the_tiles_order_of_points_by_column_is_a_stable_argsort(binning, dtype)
             assert got is None
             continue
         assert got.dtype == index and np.array_equal(got, expected)
+
+
+@pytest.mark.parametrize("n", [300, 70_000])  # uint16 cells, and int32 beyond
+def test_the_tiles_cells_along_an_axis_are_numpys(binning, n, monkeypatch):
+    # core.tiles._column: floor((x - lower) / h) clipped to 0..n-1, the same
+    # with the kernel (threads of 1000 points here) as in numpy's chunks.
+    from core import grid_kernel, tiles
+
+    monkeypatch.setenv("URBANVOX_THREADS", "3")
+    rng = np.random.default_rng(12)
+    h, lower = 0.3, 2.6e6 + 0.17
+    x = lower + rng.uniform(-5.0, n * h + 5.0, size=(20_000, 3))[:, 1]  # a strided column, some outside
+    x[:50] = lower + np.arange(50) * h  # on cell boundaries
+    got = tiles._column(x, lower, h, n)
+    expected = np.clip(np.floor((x - lower) / h), 0, n - 1)
+    assert got.dtype == (np.uint16 if n < 2**16 - 1 else np.int32)
+    assert got.min() == 0 and got.max() == n - 1 and np.array_equal(got, expected)
+    if binning == "compiled":
+        with monkeypatch.context() as patch:
+            patch.setenv("URBANVOX_JIT", "0")
+            assert np.array_equal(tiles._column(x, lower, h, n), got)
+        assert np.array_equal(grid_kernel.axis_cells(x, lower, h, n, np.empty(len(x), got.dtype)), got)
