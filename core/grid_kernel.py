@@ -104,6 +104,29 @@ def column_of(points: np.ndarray, origin: np.ndarray, voxel_size: float, shape: 
     return column
 
 
+def local_columns(points: np.ndarray, offset: np.ndarray, origin: np.ndarray, voxel_size: float,
+                  shape: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`core.ground._local_columns`: the column number and local height
+    of points given in world coordinates (``points - offset`` the local ones).
+
+    Examples
+    --------
+    >>> column, height = local_columns(np.array([[100.5, 202.5, 11.0], [102.5, 200.5, 12.5]]),
+    ...                                np.array([100.0, 200.0, 10.0]), np.zeros(3), 1.0, (3, 3, 5))
+    >>> column.tolist(), height.tolist()
+    ([2, 6], [1.0, 2.5])
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    offset = np.ascontiguousarray(offset, dtype=np.float64)
+    origin = np.ascontiguousarray(origin, dtype=np.float64)
+    column = np.empty(len(points), dtype=np.int64)
+    height = np.empty(len(points), dtype=np.float64)
+    nx, ny = int(shape[0]), int(shape[1])
+    map_blocks(lambda rows: _local_columns(points, rows.start, rows.stop, offset, origin, float(voxel_size),
+                                           nx, ny, column, height), thread_blocks(len(points)))
+    return column, height
+
+
 def axis_cells(x: np.ndarray, lower: float, h: float, n: int, out: np.ndarray) -> np.ndarray:
     """:func:`core.tiles._column` into ``out``: the cell of each coordinate
     ``x`` along one axis of ``n`` cells of side ``h`` from ``lower``.
@@ -138,6 +161,9 @@ def warm_up() -> int:
     assert cells.tolist() == [[3, 0, 0], [0, 2, 1]], cells
     column = column_of(np.array([[0.5, 2.5, 1.2], [-1.0, 9.0, 0.0]]), np.zeros(3), 1.0, (4, 3, 2))
     assert column.tolist() == [2, 2], column
+    column, height = local_columns(np.array([[100.5, 202.5, 11.0]]), np.array([100.0, 200.0, 10.0]), np.zeros(3),
+                                   1.0, (3, 3, 5))
+    assert column.tolist() == [2] and height.tolist() == [1.0]
     xyz = np.array([[0.5, 2.5, 1.2], [-1.0, 9.0, 0.0]])
     for dtype in (np.uint16, np.int32):
         assert axis_cells(xyz[:, 1], 0.0, 1.0, 3, np.empty(2, dtype)).tolist() == [2, 2]
@@ -278,6 +304,17 @@ def _columns(points, start, stop, origin, voxel_size, nx, ny, column):
         for q in range(count):
             column[first + q] = (_cell(x[q], origin[0], voxel_size, nx - 1.0) * ny
                                  + _cell(y[q], origin[1], voxel_size, ny - 1.0))
+
+
+@compiled
+def _local_columns(points, start, stop, offset, origin, voxel_size, nx, ny, column, height):
+    """Rows ``start:stop`` of :func:`local_columns`: the local coordinates
+    rounded as numpy's ``points - offset``, then :func:`_columns`' cells."""
+    for q in range(start, stop):
+        x = points[q, 0] - offset[0]
+        y = points[q, 1] - offset[1]
+        column[q] = _cell(x, origin[0], voxel_size, nx - 1.0) * ny + _cell(y, origin[1], voxel_size, ny - 1.0)
+        height[q] = points[q, 2] - offset[2]
 
 
 @compiled

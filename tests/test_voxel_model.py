@@ -96,11 +96,14 @@ def test_ground_level_is_interpolated_under_roofs():
     assert np.array_equal(level.top_k, np.floor(z - 0.5).astype(int))
 
 
-def test_ground_level_from_world_coordinates_is_bit_for_bit_the_local_one():
+@pytest.mark.parametrize("kernels", ["0", "always"])
+def test_ground_level_from_world_coordinates_is_bit_for_bit_the_local_one(kernels, monkeypatch):
     # The tiled run hands the domain's world points over, shifted to local
-    # coordinates a chunk at a time: every number must be the local run's.
+    # coordinates a chunk at a time (numpy) or point by point (compiled,
+    # core.grid_kernel.local_columns): every number must be the local run's.
     from core.grid import VoxelGrid
     from core.ground import _local_columns
+    monkeypatch.setenv("URBANVOX_JIT", kernels)
     rng = np.random.default_rng(3)
     offset = np.array([2.6e6 + 0.37, 1.2e6 + 0.11, 41.3])
     g = VoxelGrid(offset, np.zeros(3), 0.7, (40, 30, 60))
