@@ -18,7 +18,7 @@ of moved nodes and the faces around them (:mod:`core.topology_kernel`) and
 the connected parts of the gmsh export (:mod:`core.export_kernel`),
 the per-block sums of the measures (:mod:`core.measure_kernel`), the
 numbering and copying of the tiles' nodes and faces into one model
-(:mod:`core.tile_merge_kernel`), the
+(:mod:`core.tiles_kernel`), the
 weighted moments and least axes of the MLS planes (:mod:`core.mls_kernel`) and the
 reader's sorting of a LAS chunk's points (:mod:`core.las_kernel`).
 numba compiles such loops; the issue that asked for speed allows a compiled
@@ -54,7 +54,7 @@ from .errors import Cancelled
 #: a file is read, and the reader uses its own once it is loaded.
 KERNELS = ("las_kernel", "blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
            "manifold_kernel", "measure_kernel", "mls_kernel", "neighbours_kernel", "projection_kernel",
-           "quality_kernel", "smooth_kernel", "support_kernel", "surface_kernel", "tile_merge_kernel", "topology_kernel")
+           "quality_kernel", "smooth_kernel", "support_kernel", "surface_kernel", "tiles_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

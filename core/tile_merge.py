@@ -177,7 +177,7 @@ def number_nodes(copy_key: np.ndarray, by_rank: np.ndarray, ranks: int) -> tuple
     """
     # One pass instead of numpy's chain of (N,) passes (0.7-1.0 s on the
     # 2 km city's 20.5 M copies, a cumulative sum of booleans the slowest).
-    found = jit.run("tile_merge_kernel", "number_nodes", copy_key, by_rank, ranks, size=len(copy_key))
+    found = jit.run("tiles_kernel", "number_nodes", copy_key, by_rank, ranks, size=len(copy_key))
     if found is not None:
         return found
     first = run_starts(copy_key.take(by_rank) // ranks)
@@ -208,7 +208,7 @@ def place_nodes(nodes: np.ndarray, final: np.ndarray, node_of: np.ndarray, chose
     """
     # One pass over the piece's rows on all cores: numpy's row scatters
     # (an argsort of the chosen copies by piece first) took 2-3 s there.
-    if jit.run("tile_merge_kernel", "place_nodes", nodes, final, node_of, chosen, first, keys, moved, h,
+    if jit.run("tiles_kernel", "place_nodes", nodes, final, node_of, chosen, first, keys, moved, h,
                size=len(keys)) is not None:
         return
     mine = chosen.take(node_of) == np.arange(first, first + len(node_of))
@@ -231,7 +231,7 @@ def place_faces(quads_out: np.ndarray, regions_out: np.ndarray, node_of: np.ndar
     >>> quads_out.tolist(), regions_out.tolist()
     ([[10, 11, 13, 12]], [[5, -1]])
     """
-    if jit.run("tile_merge_kernel", "place_faces", quads_out, regions_out, node_of, quads, regions, renumber,
+    if jit.run("tiles_kernel", "place_faces", quads_out, regions_out, node_of, quads, regions, renumber,
                size=len(quads)) is not None:
         return
     # mode="clip" keeps take from buffering its output; every index is in range.

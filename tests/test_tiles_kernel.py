@@ -1,13 +1,13 @@
-"""The compiled passes of the tiles' merge (core.tile_merge_kernel) against numpy's (core.tile_merge)."""
+"""The compiled passes of the tiled run (core.tiles_kernel) against numpy's (core.tiles, core.tile_merge)."""
 import numpy as np
 import pytest
 
-from core import tile_merge
+from core import tile_merge, tiles
 
 
 @pytest.fixture
 def kernel(compiled):
-    return compiled("tile_merge_kernel")
+    return compiled("tiles_kernel")
 
 
 def _copies(seed: int, pieces: int = 6, ranks: int = 12):
@@ -84,3 +84,34 @@ def test_placed_nodes_and_faces_are_numpys(monkeypatch, kernel):
     assert (outputs[0][2] >= 0).all()
     for expected, got in zip(*outputs):
         assert np.array_equal(got, expected)
+
+
+@pytest.mark.parametrize("last", [False, True])  # a core inside the domain, and one on its far sides
+def test_owned_faces_are_numpys(monkeypatch, kernel, last):
+    rng = np.random.default_rng(5)
+    nx, ny = 60, 50
+    core = (20, 10, 60, 50) if last else (20, 10, 40, 30)
+    # Lattice quads of a window around the core: each face's corners a unit
+    # square in a random plane, so centres fall on both sides of every edge.
+    n_faces = 40_000
+    low = rng.integers(0, [nx, ny, 20], size=(n_faces, 3))
+    axis = rng.integers(0, 3, n_faces)
+    square = np.array([[0, 0], [1, 0], [1, 1], [0, 1]])
+    corners = np.repeat(low[:, None, :], 4, axis=1)
+    for a in range(3):
+        rows = axis == a
+        in_plane = [b for b in range(3) if b != a]
+        corners[np.ix_(rows, [0, 1, 2, 3], in_plane)] += square
+    keys, quads = np.unique(corners.reshape(-1, 3), axis=0, return_inverse=True)
+    quads = quads.reshape(-1, 4).astype(np.int64)
+    regions = rng.integers(-2, 30, size=(n_faces, 2)).astype(np.int32)
+    renumber = np.where(rng.random(30) < 0.5, rng.integers(1, 9, 30), 0).astype(np.int32)
+    renumber[0] = 0
+    keys = keys.astype(np.int32)
+    with monkeypatch.context() as patch:
+        patch.setenv("URBANVOX_JIT", "0")
+        keep, keep_block = tiles.owned_faces(keys, quads, regions, renumber, core, (nx, ny))
+    got_keep, got_block = kernel.owned_faces(keys, quads, regions, renumber, core, (nx, ny))
+    ground_or_air = (regions <= 0).all(axis=1)
+    assert keep_block.any() and (keep & ground_or_air).any() and (~keep & ground_or_air).any()
+    assert np.array_equal(got_keep, keep) and np.array_equal(got_block, keep_block)
