@@ -30,12 +30,17 @@ def owned_faces(keys: np.ndarray, quads: np.ndarray, regions: np.ndarray, renumb
 
     Examples
     --------
-    >>> keys = np.array([[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1], [2, 0, 1], [2, 1, 1], [3, 0, 1], [3, 1, 1]])
-    >>> quads = np.array([[0, 1, 2, 3], [1, 4, 5, 2], [4, 6, 7, 5]])
-    >>> regions = np.array([[1, -2], [-1, -2], [-1, -2]])
-    >>> keep, block = owned_faces(keys, quads, regions, np.array([0, 1]), (0, 0, 2, 5), (9, 5))
-    >>> keep.tolist(), block.tolist()
-    ([True, True, False], [True, False, False])
+    Two air faces centred at x = 0.5 and 1.5 (4 x = 2 and 6): a core of the
+    first column keeps the first; as the domain's last column (nx = 1) it
+    keeps what lies beyond too:
+
+    >>> keys = np.array([[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1], [2, 0, 1], [2, 1, 1]], np.int32)
+    >>> quads = np.array([[0, 1, 2, 3], [1, 4, 5, 2]])
+    >>> regions = np.array([[-1, -2], [-1, -2]], np.int32)
+    >>> for columns in ((2, 1), (1, 1)):
+    ...     print(owned_faces(keys, quads, regions, np.zeros(1, np.int32), (0, 0, 1, 1), columns)[0].tolist())
+    [True, False]
+    [True, True]
     """
     keys, quads = np.ascontiguousarray(keys), np.ascontiguousarray(quads)
     regions, renumber = np.ascontiguousarray(regions), np.ascontiguousarray(renumber)
