@@ -34,8 +34,10 @@ def test_fixed_point_text_is_the_operators(places):
 def test_integer_text_is_the_operators(dtype):
     rng = np.random.default_rng(1)
     info = np.iinfo(dtype)
+    # The digit counts' edges that the type holds (numpy 2 refuses to wrap the others).
+    edges = [v for v in (0, 1, 9, 10, 99, 100, 9999, 10000) if info.min <= v <= info.max] + [info.min, info.max]
     values = np.concatenate([rng.integers(info.min, info.max, 20_000, dtype=dtype, endpoint=True),
-                             np.array([0, 1, 9, 10, 99, 100, 9999, 10000, info.min, info.max], dtype=dtype)])
+                             np.array(edges, dtype=dtype)])
     rows = np.column_stack([values, values[::-1], np.zeros_like(values)])
     assert format_rows("%d  %d %d", rows) == by_operator("%d  %d %d", rows)
     assert format_rows("f %d %d %d", rows) == by_operator("f %d %d %d", rows)
