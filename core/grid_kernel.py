@@ -16,7 +16,8 @@ points/s) where zeroed bitmaps read whole took 0.019-0.021 s in the same
 hour (0.025-0.035 s on other days: this machine's memory speed varies). Column numbers
 (:meth:`core.grid.VoxelGrid.column_of`, 0.1-0.2 s for the 7.2 M ground
 points of that city in numpy) take one such pass: 0.007-0.015 s, and so
-do the tiled run's cells along x and along y (:func:`axis_cells`).
+do the tiled run's cells along x and along y (:func:`axis_cells`) and
+the columns of its world points for the ground level (:func:`local_columns`).
 
 Every number is numpy's: the same floor of the same quotient, clipped the
 same way; the voxel number is an integer below 2**53, which numpy's float

@@ -17,8 +17,8 @@ regions (:mod:`core.surface_kernel`), the selections
 of moved nodes and the faces around them (:mod:`core.topology_kernel`) and
 the connected parts of the gmsh export (:mod:`core.export_kernel`),
 the per-block sums of the measures (:mod:`core.measure_kernel`), the
-numbering and copying of the tiles' nodes and faces into one model
-(:mod:`core.tiles_kernel`), the
+faces each tile owns and the numbering and copying of the tiles' nodes
+and faces into one model (:mod:`core.tiles_kernel`), the
 weighted moments and least axes of the MLS planes (:mod:`core.mls_kernel`) and the
 reader's sorting of a LAS chunk's points (:mod:`core.las_kernel`).
 numba compiles such loops; the issue that asked for speed allows a compiled

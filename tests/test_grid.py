@@ -145,7 +145,7 @@ def test_the_tiles_order_of_points_by_column_is_a_stable_argsort(binning, dtype)
 @pytest.mark.parametrize("n", [300, 70_000])  # uint16 cells, and int32 beyond
 def test_the_tiles_cells_along_an_axis_are_numpys(binning, n, monkeypatch):
     # core.tiles._column: floor((x - lower) / h) clipped to 0..n-1, the same
-    # with the kernel (threads of 1000 points here) as in numpy's chunks.
+    # with the kernel (on three threads here) as in numpy's chunks.
     from core import grid_kernel, tiles
 
     monkeypatch.setenv("URBANVOX_THREADS", "3")

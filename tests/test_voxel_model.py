@@ -114,7 +114,7 @@ def test_ground_level_from_world_coordinates_is_bit_for_bit_the_local_one(kernel
     assert np.array_equal(world.z, local.z)
     assert np.array_equal(world.top_k, local.top_k)
     assert np.array_equal(world.observed, local.observed)
-    column, height = _local_columns(g, pts, chunk=7)  # many chunks, a short last one
+    column, height = _local_columns(g, pts, chunk=7)  # numpy: many chunks, a short last one
     assert np.array_equal(column, g.column_of(pts - offset))
     assert np.array_equal(height, (pts - offset)[:, 2])
 
