@@ -123,10 +123,7 @@ def make_well_composed(labels: np.ndarray, max_iterations: int = 500,
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         if len(origins):
-            code = np.zeros(len(origins), dtype=np.int64)
-            for bit in range(8):
-                code += (flat[origins + corner_offset[bit]].astype(np.int64) - 1) * 3**bit
-            fix = FIX_TABLE[code]
+            fix = FIX_TABLE[_pattern_codes(flat, origins, corner_offset)]
             wanted = fix >= 0
             targets = np.unique(origins[wanted] + corner_offset[fix[wanted]])
             targets = targets[flat[targets] == AIR]
@@ -162,11 +159,17 @@ def _critical_cubes_around(labels: np.ndarray, cells: np.ndarray) -> np.ndarray:
         return np.zeros(0, dtype=np.int64)
     stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
     origins = _cubes_around(cells, shape, stride)
-    flat = labels.reshape(-1)
-    total = np.zeros(len(origins), dtype=np.int64)
-    for bit, offset in enumerate(CORNERS @ stride):
-        total += flat[origins + offset].astype(np.int64) * 3**bit
-    return origins[_CRITICAL_BY_LABEL_SUM[total]]
+    return origins[FIX_TABLE[_pattern_codes(labels.reshape(-1), origins, CORNERS @ stride)] >= 0]
+
+
+def _pattern_codes(flat: np.ndarray, origins: np.ndarray, corner_offset: np.ndarray) -> np.ndarray:
+    """The pattern code of each cube (flat index of its lowest corner in
+    ``flat``): its corners' labels - 1 as base-3 digits, the index of
+    :data:`FIX_TABLE`."""
+    code = np.zeros(len(origins), dtype=np.int64)
+    for bit in range(8):
+        code += (flat[origins + corner_offset[bit]].astype(np.int64) - 1) * 3**bit
+    return code
 
 
 def _all_critical_cubes(labels: np.ndarray) -> np.ndarray:
