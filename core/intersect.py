@@ -201,21 +201,25 @@ class _Cells:
 
         def fill(rows: slice) -> None:
             # Blocks of rows on all cores, their temporaries in the cache.
-            self.key[rows] = self._keys(centre[rows])
+            self.key[rows] = self._keys(self._cells(centre[rows]))
 
         map_blocks(fill, row_blocks(len(centre), _ROWS))
 
-    def _keys(self, centre: np.ndarray) -> np.ndarray:
-        cell = [np.floor((centre[:, c] - self.lowest[c]) / self.radius).astype(np.int64) + 1 for c in range(3)]
-        return cell[0] + self.dims[0] * (cell[1] + self.dims[1] * cell[2])
+    def _cells(self, centre: np.ndarray) -> list[np.ndarray]:
+        """The cells of ``centre`` along each axis, from 1 (as floats)."""
+        return [np.floor((centre[:, c] - self.lowest[c]) / self.radius) + 1 for c in range(3)]
+
+    def _keys(self, cells: list[np.ndarray]) -> np.ndarray:
+        i, j, k = (x.astype(np.int64) for x in cells)
+        return i + self.dims[0] * (j + self.dims[1] * k)
 
     def moved(self, rows: np.ndarray, centre: np.ndarray) -> bool:
         """Place the faces ``rows`` again, at their new ``centre`` (one per
         row); False (nothing changed) where one falls outside the lattice."""
-        cell = [np.floor((centre[:, c] - self.lowest[c]) / self.radius) + 1 for c in range(3)]
-        if not all(np.all((x >= 1) & (x <= d - 2)) for x, d in zip(cell, self.dims)):
+        cells = self._cells(centre)
+        if not all(np.all((x >= 1) & (x <= d - 2)) for x, d in zip(cells, self.dims)):
             return False
-        self.key[rows] = self._keys(centre)
+        self.key[rows] = self._keys(cells)
         return True
 
     def near(self, seeds: np.ndarray) -> np.ndarray:
