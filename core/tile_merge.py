@@ -238,5 +238,16 @@ def place_faces(quads_out: np.ndarray, regions_out: np.ndarray, node_of: np.ndar
         return
     # mode="clip" keeps take from buffering its output; every index is in range.
     np.take(node_of, quads, out=quads_out, mode="clip")
-    np.copyto(regions_out, regions)
-    np.copyto(regions_out, renumber.take(np.maximum(regions, 0)), where=regions > 0)
+    regions_out[:] = renumbered_blocks(regions, renumber)
+
+
+def renumbered_blocks(regions: np.ndarray, renumber: np.ndarray) -> np.ndarray:
+    """``regions`` with the blocks (> 0) through ``renumber``, ground, air
+    and outside (< 0) as they are.
+
+    Examples
+    --------
+    >>> renumbered_blocks(np.array([[2, -1], [-2, 1]], np.int32), np.array([0, 7, 5], np.int32)).tolist()
+    [[5, -1], [-2, 7]]
+    """
+    return np.where(regions > 0, renumber.take(np.maximum(regions, 0)), regions)

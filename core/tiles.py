@@ -51,7 +51,7 @@ from .manifold import repair_height_field
 from .measure import BlockMeasures
 from .parallel import in_background
 from .surface import unique_nodes
-from .tile_merge import check_copy_keys, check_merge_memory, merge_pieces
+from .tile_merge import check_copy_keys, check_merge_memory, merge_pieces, renumbered_blocks
 from .workers import TileRunner
 
 Columns = tuple[int, int, int, int]  # i0, j0, i1, j1 (half-open), global columns
@@ -210,7 +210,7 @@ def _owned_piece(job: TileJob, result) -> TilePiece:
     quads = quads.compress(keep, axis=0)
     used, inverse = unique_nodes(quads, len(surface.nodes))
     kept_regions = regions.compress(keep, axis=0)
-    new_regions = np.where(kept_regions > 0, renumber.take(np.maximum(kept_regions, 0)), kept_regions)
+    new_regions = renumbered_blocks(kept_regions, renumber)
     priority = np.zeros(len(surface.nodes), dtype=bool)
     priority[surface.quads.compress(keep_block, axis=0).ravel()] = True
 
