@@ -50,10 +50,11 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
     Examples
     --------
-    >>> cov = np.array([[[2.0, 0, 0], [0, 3, 0], [0, 0, 0.5]]])
-    >>> normal, values = least_axis(cov)
-    >>> np.abs(normal).round(12).tolist(), values.round(12).tolist()
-    ([[0.0, 0.0, 1.0]], [[0.5, 2.0, 3.0]])
+    A matrix whose least axis is off the coordinate axes, (1, -1, 0) / sqrt(2):
+
+    >>> normal, values = least_axis(np.array([[[2.0, 1, 0], [1, 2, 0], [0, 0, 5]]]))
+    >>> (np.abs(normal) * np.sqrt(2)).round(12).tolist(), values.round(12).tolist()
+    ([[1.0, 1.0, 0.0]], [[1.0, 3.0, 5.0]])
     """
     cov = np.ascontiguousarray(cov, dtype=np.float64)
     mean, spread, twice_det = np.empty(len(cov)), np.empty(len(cov)), np.empty(len(cov))
