@@ -382,8 +382,12 @@ def k_nearest(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start,
     """The k nearest within ``radius`` of (qx, qy, qz) into row ``q`` of
     ``dist`` and ``idx`` (in order, ``key`` holding their coordinates);
     within means ``d^2 < radius^2`` if ``strict``, else ``d^2 <= radius^2``.
-    Returns how many were found."""
+    Returns how many were found, and the smallest squared distance of the
+    points looked at beyond ``radius`` (``inf`` if none): the columns
+    scanned reach past it, and for one nearest such a point bounds the
+    next search (:func:`_nearest`)."""
     r2 = radius * radius
+    seen2 = np.inf
     box = radius * BOX
     ix0, ix1, iy0, iy1 = column_range(qx, qy, box, x0, y0, cell, nx, ny)
     kept = 0
@@ -402,6 +406,7 @@ def k_nearest(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start,
             dx, dy, dz = x - qx, y - qy, z - qz
             d2 = (dx * dx + dy * dy) + dz * dz
             if d2 > r2 or (strict and d2 == r2):
+                seen2 = min(seen2, d2)
                 continue
             # Beyond the k-th by more than round-off: its square root cannot tie.
             if kept == k and d2 > last2 * (1 + 1e-15):
@@ -423,7 +428,7 @@ def k_nearest(qx, qy, qz, k, radius, strict, x0, y0, cell, nx, ny, order, start,
                 kept += 1
             if kept == k:
                 last2 = dist[q, k - 1] * dist[q, k - 1]
-    return kept
+    return kept, seen2
 
 
 @compiled
@@ -437,16 +442,20 @@ def _nearest(at, start_row, stop_row, k, upper, first, x0, y0, cell, nx, ny, ord
         bound = upper[0] if len(upper) == 1 else upper[q]
         if bound < np.inf:
             kept = k_nearest(qx, qy, qz, k, bound, True, x0, y0, cell, nx, ny, order, start, points, dist, idx,
-                             key, q)
+                             key, q)[0]
         else:
             # Widen until the k-th found lies within the searched radius: every
             # point outside it is farther than the k-th.
             radius = first
             while True:
-                kept = k_nearest(qx, qy, qz, k, radius, False, x0, y0, cell, nx, ny, order, start, points, dist,
-                                 idx, key, q)
+                kept, seen2 = k_nearest(qx, qy, qz, k, radius, False, x0, y0, cell, nx, ny, order, start, points,
+                                        dist, idx, key, q)
                 if (kept == k and dist[q, k - 1] <= radius) or not radius < 1e300:
                     break  # (the second: a query at infinity or NaN)
-                radius *= 2
+                # Twice the radius, or for one nearest no farther than a point
+                # already seen (then the last search): nodes far from the data
+                # (walls under roof points) search a box about half as wide.
+                # The nudge keeps that point within the radius squared.
+                radius = min(2 * radius, np.sqrt(seen2) * (1 + 1e-12)) if k == 1 else 2 * radius
         for s in range(kept, k):
             dist[q, s], idx[q, s] = np.inf, n

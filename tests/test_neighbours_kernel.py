@@ -70,6 +70,20 @@ def test_ties_on_a_lattice_and_points_on_the_bound(kernel, k, upper):
     assert same_points.mean() > 0.95
 
 
+def test_nearest_of_queries_far_above_a_lattice(kernel):
+    # One nearest, unbounded, from high above a sparse lattice (wall nodes
+    # under roof points): the search widens several times and stops at the
+    # distance of a point already seen, where others on the lattice tie.
+    rng = np.random.default_rng(11)
+    data = np.array([(x, y, 0.0) for x in range(0, 40, 2) for y in range(0, 40, 2)], dtype=float)
+    at = np.column_stack([np.round(rng.uniform(0, 38, 400)), np.round(rng.uniform(0, 38, 400)),
+                          rng.integers(1, 12, 400).astype(float)])
+    got = kernel.ColumnIndex(data, 0.75).nearest(at, 1)
+    expected = brute_force(data, at, 1, np.inf)
+    assert np.isfinite(got[0]).all() and got[0].max() > 5  # some searched far
+    assert_same(data, expected, got)
+
+
 def test_bound_decided_as_scipy_decides_it(kernel):
     # Distances a hair either side of the bound, in city coordinates.
     rng = np.random.default_rng(3)
