@@ -128,14 +128,17 @@ class CatmullClarkStep:
         size = len(self.nodes)
         m = len(faces)
         ends = undirected_edges(faces, size)
-        e = len(ends) // 2
-        # CSC from the tables directly: column j holds the nodes of face (edge) j.
-        self._faces = sparse.csc_matrix((np.full(4 * m, 0.25), faces.ravel(), np.arange(0, 4 * m + 1, 4)),
-                                        shape=(size, m))
-        self._edges = sparse.csc_matrix((np.full(2 * e, 0.5), ends, np.arange(0, 2 * e + 1, 2)),
-                                        shape=(size, e))
-        face_count = np.bincount(faces.ravel(), minlength=size)
-        valence = np.bincount(ends, minlength=size)
+        # The faces' corners and the edges' ends in the index type scipy gives
+        # the matrices below (int32 unless too many): the compiled step reads
+        # these tables alone. The matrices, whose values are all 1/4 and 1/2,
+        # are made for the numpy step only: 150 MB of the smoothing's peak of
+        # memory on the 1 km city, for the blocks' step and the ground's.
+        index = np.int32 if max(size, 4 * m + 1, len(ends) + 1) <= np.iinfo(np.int32).max else np.int64
+        self._corners = faces.ravel().astype(index, copy=False)
+        self._ends = ends.astype(index, copy=False)
+        self._matrices: tuple[sparse.csc_matrix, sparse.csc_matrix] | None = None
+        face_count = np.bincount(self._corners, minlength=size)
+        valence = np.bincount(self._ends, minlength=size)
         # (F + 2 R + (n - 3) P) / n with F = (4 / faces) A A^T P and R = (2 / n) B B^T P.
         self._face_weight = (4.0 / face_count / valence)[:, None]
         self._edge_weight = (4.0 / valence / valence)[:, None]
@@ -145,8 +148,17 @@ class CatmullClarkStep:
         """The step as :func:`core.smooth_kernel.step_into` takes it: the
         faces' corners and the edges' ends (numbered as ``self.nodes``), and
         the weights of a node's face sum, edge sum and position."""
-        return (self._faces.indices, self._edges.indices, self._face_weight[:, 0], self._edge_weight[:, 0],
-                self._own_weight[:, 0])
+        return self._corners, self._ends, self._face_weight[:, 0], self._edge_weight[:, 0], self._own_weight[:, 0]
+
+    def _incidence(self) -> tuple[sparse.csc_matrix, sparse.csc_matrix]:
+        """``A`` and ``B`` (see the class doc), made at the first call, in CSC
+        from the tables directly: column j holds the nodes of face (edge) j."""
+        if self._matrices is None:
+            size, m, e = len(self.nodes), len(self._corners) // 4, len(self._ends) // 2
+            self._matrices = (
+                sparse.csc_matrix((np.full(4 * m, 0.25), self._corners, np.arange(0, 4 * m + 1, 4)), shape=(size, m)),
+                sparse.csc_matrix((np.full(2 * e, 0.5), self._ends, np.arange(0, 2 * e + 1, 2)), shape=(size, e)))
+        return self._matrices
 
     def into(self, target: np.ndarray, positions: np.ndarray, which: np.ndarray) -> np.ndarray:
         """Write the new positions of the surface nodes ``self.nodes[which]``
@@ -162,8 +174,9 @@ class CatmullClarkStep:
     def __call__(self, positions: np.ndarray) -> np.ndarray:
         """New positions (len(self.nodes), 3) of the surface's nodes, from all ``positions`` (N, 3)."""
         p = positions.take(self.nodes, axis=0)  # faster than positions[self.nodes] (core.vectors)
-        face_sum = self._faces @ (self._faces.T @ p)
-        edge_sum = self._edges @ (self._edges.T @ p)
+        faces, edges = self._incidence()
+        face_sum = faces @ (faces.T @ p)
+        edge_sum = edges @ (edges.T @ p)
         return self._face_weight * face_sum + self._edge_weight * edge_sum + self._own_weight * p
 
 
