@@ -15,6 +15,7 @@ in each thread of a row-block pool).
 """
 from __future__ import annotations
 
+from concurrent.futures import Future
 from typing import TYPE_CHECKING, Callable, Sequence, Union
 
 import numpy as np
@@ -166,7 +167,10 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
                      ) -> np.ndarray:
     """Distance from every point to the nearest point of any tree's data (NaN without data).
 
-    A tree may also be a compiled index (:func:`point_index`): the same distances.
+    A tree may also be a compiled index (:func:`point_index`): the same
+    distances. A tree after the first may be a future of one (being made on
+    another thread, :func:`core.parallel.in_background`): it is waited for
+    when its turn comes, once the first is searched.
 
     The first tree is searched in full. The others first only within
     ``bound``, a search that stops early; where the nearest point so far is
@@ -193,6 +197,8 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
     distance = np.full(len(points), np.inf)
     searched = False
     for n, tree in enumerate(trees):
+        if isinstance(tree, Future):
+            tree = tree.result()
         if tree.n == 0 or len(points) == 0:
             continue
         if not searched:

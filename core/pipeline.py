@@ -352,12 +352,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         nodes, stats["projection_buildings"] = project_nodes(
             surface, nodes, roles, on_buildings, building, h, params.quality_threshold, angle,
             is_cancelled=is_cancelled, tree=building_search)
-    # The ground points' search (for the distances measured at the end) is
-    # made now, on a thread of its own while the ground is projected, and the
-    # ground data below only for that projection: neither is held through the
-    # smoothing and the buildings' crossing control, the run's peaks of
-    # memory (200 and 170 MB on the 1 km city).
-    ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
+    # The ground data below serve the ground's projection only: they are not
+    # held through the smoothing and the buildings' crossing control.
     if params.project:
         # Ground data for the ground and the base of the blocks: the ground points,
         # and the interpolated level where the ground was not seen (under roofs).
@@ -371,13 +367,21 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
             check_crossings=False, is_cancelled=is_cancelled)
         lap("project")
         del ground_data
+    # The ground points' search, for the distances measured below, is made
+    # now, once the ground's projection has let go of its data and their
+    # index, on a thread of its own while the block nodes search the building
+    # points. Made beside that projection (as before), it set the run's peak
+    # of memory: on the 1 km city 2,051-2,136 MB, now 1,846-1,858 MB; the
+    # projection then runs 0.3 s faster, without a build beside it, and the
+    # measures wait 0.15 s longer.
+    ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
     mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
     # Distance of block nodes to the data (the nearest building or ground
     # point). Most block nodes are roofs and walls, high above any ground
     # point of the columns around them: they skip the ground's searches (on
     # the 1 km city, its first search then takes 171 k of 1.79 M nodes).
     distance = np.full(len(nodes), np.nan)
-    distance[roles.on_block] = nearest_distance(nodes[roles.on_block], [building_search, ground_tree.result()], h,
+    distance[roles.on_block] = nearest_distance(nodes[roles.on_block], [building_search, ground_tree], h,
                                                 [None, near_ground.result()])
     del building_search, ground_tree, near_ground
     measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance)

@@ -4,6 +4,7 @@ import pytest
 from scipy.spatial import cKDTree
 
 from core.neighbours import nearest, nearest_distance, search_tree
+from core.parallel import in_background
 
 
 def _brute_force(data, at, k):
@@ -47,6 +48,9 @@ def test_nearest_distance_over_several_trees_matches_brute_force_over_their_unio
         for bound in (0.0, 0.3, 1.0, 100.0):
             trees = [search_tree(data[:split]), search_tree(data[split:])]
             np.testing.assert_array_equal(nearest_distance(points, trees, bound), want)
+    # The second tree still being made on the background thread (the pipeline's ground search).
+    later = in_background(search_tree, data[250:])
+    np.testing.assert_array_equal(nearest_distance(points, [search_tree(data[:250]), later], 0.3), want)
     assert np.isnan(nearest_distance(points, [search_tree(data[:0])], 1.0)).all()
 
 
