@@ -454,8 +454,10 @@ def _nearest(at, start_row, stop_row, k, upper, first, x0, y0, cell, nx, ny, ord
                     break  # (the second: a query at infinity or NaN)
                 # Twice the radius, or for one nearest no farther than a point
                 # already seen (then the last search): nodes far from the data
-                # (walls under roof points) search a box about half as wide.
-                # The nudge keeps that point within the radius squared.
+                # (walls under roof points) end on a box as wide as that point's
+                # distance, not up to twice it (the measure's search of the
+                # building points: 0.53 -> 0.47 s on the 1 km city, 0.10 -> 0.086
+                # s on Delft). The nudge keeps that point within the radius squared.
                 radius = min(2 * radius, np.sqrt(seen2) * (1 + 1e-12)) if k == 1 else 2 * radius
         for s in range(kept, k):
             dist[q, s], idx[q, s] = np.inf, n

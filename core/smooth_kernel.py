@@ -147,7 +147,7 @@ def undirected_edges(faces, size):
 
 def warm_up() -> int:
     """Compile for the types :class:`core.smooth.CatmullClarkStep` passes
-    (scipy's index arrays are int32, int64 on very large surfaces)."""
+    (its tables are int32, int64 on very large surfaces, as scipy's index arrays)."""
     from .smooth import CatmullClarkStep
 
     nodes = np.array([[x, y, z] for z in (0, 2) for y in (0, 2) for x in (0, 2)], float)
