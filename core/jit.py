@@ -179,10 +179,13 @@ def preload(size: int) -> threading.Thread | None:
     on with numpy work; None (nothing started) when that work is too small,
     the kernels are off, or a preload was already started in this process.
 
-    Loading them in a fresh process took about 0.5 s (Delft at 0.5 m: 1.46
-    s of method in a process's first run, 0.97 s in the next), paid by every
-    command-line run and every Dask worker's first tile; loaded from the
-    grid step on, Delft's first run takes 1.30-1.33 s. The first call of a
+    Loading them in a fresh process takes about 0.45 s, paid by every
+    command-line run and every Dask worker's first tile. Loading holds the
+    GIL, so it overlaps little with the caller's numpy work: the reader and
+    the pipeline preload for many points only (a large file decodes
+    meanwhile). For small data a kernel loads at its first call, and the
+    kernels a run does not use never load (Delft at 0.5 m: 1.23-1.27 s of
+    method in a first run, 1.25-1.32 s with a preload). The first call of a
     kernel that is still loading waits for it (numba's compiler lock).
     Returns the thread.
     """
