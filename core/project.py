@@ -203,8 +203,9 @@ def _plane_targets(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: n
 
     A function of its own so that its tables (the candidates, the planes
     fitted, the last try's rows) are freed before the quality and crossing
-    controls, which hold the projection's peak of memory: about 180 MB less
-    there on the 1 km city.
+    controls, which hold the projection's peak of memory: on the 1 km city
+    the resident memory rose to 2,070 MB in the buildings' crossing control
+    with them held, to 1,870 MB without.
     """
     candidates = _candidates(tree, data, p, normal, radius, _TRIES, is_cancelled)
     cos_max = np.cos(np.radians(max_angle))
