@@ -361,10 +361,11 @@ def available_memory() -> int:
 
 #: Bytes per surface face (quad) that the surfaces, smoothing, projection and
 #: the measures add: node and face arrays, the triangles of the best splits,
-#: the smoothing's incidence matrices, the KD-trees of the projection. Measured on the
-#: 1 km synthetic city at 1 m (benchmarks/run.py): peak RSS 2.16 GB before
-#: the surfaces, 3.35 GB after the projection, for 4.85 M faces (245 B per
-#: face), with a margin.
+#: the smoothing's tables, the projection's searches. Measured on the 1 km
+#: synthetic city at 1 m (benchmarks/run.py) in an early round: peak RSS
+#: 2.16 GB before the surfaces, 3.35 GB after the projection, for 4.85 M faces
+#: (245 B per face), with a margin. That run's whole peak is 1.85 GB now: the
+#: estimate errs on the safe side.
 BYTES_PER_FACE = 400
 
 

@@ -96,10 +96,13 @@ class CatmullClarkStep:
     it is made of two incidence matrices, each a plain table of the faces'
     (edges') nodes: ``A`` (nodes x faces, 1/4 per corner) gives the face
     centres ``A.T @ P``, and ``A @ centres`` a node's sum of them; ``B``
-    (nodes x edges, 1/2 per end) does the same with the edge midpoints. Two
-    sparse products with the positions per pass: the single ``n x n``
-    operator made from products of these matrices took longer to build than
-    ten passes (3.4-5 s for 1.8 M quads, a pass 0.3 s).
+    (nodes x edges, 1/2 per end) does the same with the edge midpoints. The
+    step keeps those tables (the faces' corners, the edges' ends); the
+    compiled step (:mod:`core.smooth_kernel`) reads them as they are, and
+    the numpy step makes the matrices from them, two sparse products with
+    the positions per pass: the single ``n x n`` operator made from products
+    of these matrices took longer to build than ten passes (3.4-5 s for 1.8 M
+    quads, a pass 0.3 s).
 
     Parameters
     ----------
@@ -128,15 +131,19 @@ class CatmullClarkStep:
         size = len(self.nodes)
         m = len(faces)
         ends = undirected_edges(faces, size)
-        # The faces' corners and the edges' ends in the index type scipy gives
-        # the matrices below (int32 unless too many): the compiled step reads
-        # these tables alone. The matrices, whose values are all 1/4 and 1/2,
-        # are made for the numpy step only: 150 MB of the smoothing's peak of
-        # memory on the 1 km city, for the blocks' step and the ground's.
+        # The faces' corners and the edges' ends, int32 unless either table
+        # is too large for it (then both int64, where scipy would widen one or
+        # both matrices): the compiled step reads these tables alone. The
+        # matrices (_incidence), whose values are all 1/4 and 1/2, are made
+        # for the numpy step only. Their values and column pointers took
+        # about 150 MB of arrays in the 1 km city's smoothing; the stage's
+        # high-water mark fell from 2,016 to 1,740 MB without them.
         index = np.int32 if max(size, 4 * m + 1, len(ends) + 1) <= np.iinfo(np.int32).max else np.int64
         self._corners = faces.ravel().astype(index, copy=False)
         self._ends = ends.astype(index, copy=False)
         self._matrices: tuple[sparse.csc_matrix, sparse.csc_matrix] | None = None
+        if jit.kernels("smooth_kernel", size) is None:
+            self._incidence()  # the numpy step will run: made here, as the caller expects (on its thread)
         face_count = np.bincount(self._corners, minlength=size)
         valence = np.bincount(self._ends, minlength=size)
         # (F + 2 R + (n - 3) P) / n with F = (4 / faces) A A^T P and R = (2 / n) B B^T P.

@@ -58,6 +58,11 @@ def test_int64_tables_give_the_same_positions(kernel):
     wide = kernel.step_into(nodes.copy(), nodes, step.nodes, which, corners.astype(np.int64),
                             ends.astype(np.int64), *weights)
     assert corners.dtype == np.int32 and np.array_equal(narrow, wide)
+    # The numpy step's matrices, made from the same tables: the index type
+    # scipy chose for them when it held the tables, and no copy of them.
+    faces, edges = step._incidence()
+    for matrix, table in ((faces, corners), (edges, ends)):
+        assert matrix.indices.dtype == table.dtype and np.shares_memory(matrix.indices, table)
     expected = nodes.copy()
     expected[step.nodes] = step(nodes)
     assert np.array_equal(narrow, expected)
