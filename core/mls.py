@@ -149,8 +149,12 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     b00, b11, b22 = a00 - mean, a11 - mean, a22 - mean
     spread = np.sqrt((b00 * b00 + b11 * b11 + b22 * b22 + 2 * (a01 * a01 + a02 * a02 + a12 * a12)) / 6)
     scale = np.where(spread > 0, spread, 1.0)
-    half_det = (b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02)
-                + a02 * (a01 * a12 - b11 * a02)) / (2 * scale**3)
+    # A spread whose cube underflows to zero (weights that all underflowed:
+    # a point whose neighbours all lie dozens of sigmas away) gives 0 / 0: NaN
+    # axes and values, a plane that is not flat, with no warning.
+    with np.errstate(invalid="ignore", divide="ignore"):
+        half_det = (b00 * (b11 * b22 - a12 * a12) - a01 * (a01 * b22 - a12 * a02)
+                    + a02 * (a01 * a12 - b11 * a02)) / (2 * scale**3)
     angle = np.arccos(np.clip(half_det, -1.0, 1.0)) / 3
     high = mean + 2 * spread * np.cos(angle)
     low = mean + 2 * spread * np.cos(angle + 2 * np.pi / 3)

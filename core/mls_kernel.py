@@ -61,7 +61,8 @@ def least_axis(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     _characteristic(cov, mean, spread, twice_det)
     # numpy's, as core.mls.least_axis makes them (see the module doc).
     scale = np.where(spread > 0, spread, 1.0)
-    half_det = twice_det / (2 * scale**3)
+    with np.errstate(invalid="ignore", divide="ignore"):  # as core.mls.least_axis: 0 / 0 where the cube underflows
+        half_det = twice_det / (2 * scale**3)
     angle = np.arccos(np.clip(half_det, -1.0, 1.0)) / 3
     high_cos, low_cos = np.cos(angle), np.cos(angle + 2 * np.pi / 3)
     normal, values = np.empty((len(cov), 3)), np.empty((len(cov), 3))

@@ -95,3 +95,25 @@ def test_points_on_a_line_make_no_flat_plane():
     assert np.allclose(np.linalg.norm(normal, axis=1), 1.0)
     _, values = least_axis(np.zeros((1, 3, 3)))
     assert values.tolist() == [[0.0, 0.0, 0.0]]
+
+
+@pytest.mark.parametrize("switch", ["0", "1"])
+def test_a_point_far_from_all_others_makes_no_plane_and_no_warning(switch, monkeypatch, compiled):
+    # Its neighbours lie about 16 sigmas away: their weights are near 1e-110
+    # beside its own, the scatter's spread (2.5e-142) is so small that its
+    # cube is zero, and the least axis divides 0 by 0. No plane, quietly (the
+    # 2 km city at 0.5 m warned from its workers).
+    import warnings
+
+    monkeypatch.setenv("URBANVOX_JIT", switch)
+    if switch == "1":
+        compiled("mls_kernel")
+    rng = np.random.default_rng(5)
+    data = np.concatenate([rng.random((200, 3)) * [20.0, 20.0, 0.1], [[24.0, 10.0, 0.05]]])
+    search = point_index(data, 1.5) if switch == "1" else search_tree(data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _, _, flat = mls_planes(data, search, data[-1:], 0.25)
+        _, values = least_axis(np.diag([3e-110, 2e-110, 1e-110])[None])
+    assert not flat[0]
+    assert np.isnan(values).all()
