@@ -67,19 +67,25 @@ def test_compiled_least_axes_are_numpys_to_the_last_bit(compiled, with_numpy):
     assert normal[-3].tolist() == [0.0, 0.0, 1.0]  # every cross product zero
 
 
+def search_with(switch, monkeypatch, compiled, data):
+    """The search over ``data`` of a run with the kernels off ("0": a KD-tree,
+    numpy's least axes) or on ("1": the column index, the compiled ones)."""
+    monkeypatch.setenv("URBANVOX_JIT", switch)
+    if switch == "1":
+        compiled("mls_kernel")
+        return point_index(data, 1.5)
+    return search_tree(data)
+
+
 @pytest.mark.parametrize("switch", ["0", "1"])
 def test_planes_of_points_on_a_tilted_roof_are_that_roof(switch, monkeypatch, compiled):
     # A roof z = 0.4 x - 0.2 y + 30 sampled at 10 points/m², at random in plan:
     # every plane inside it is that plane, through the points' weighted centre.
-    monkeypatch.setenv("URBANVOX_JIT", switch)
-    if switch == "1":
-        compiled("mls_kernel")
     rng = np.random.default_rng(2)
     xy = rng.random((4_000, 2)) * 20.0
     data = np.column_stack([xy, 0.4 * xy[:, 0] - 0.2 * xy[:, 1] + 30.0])
     inside = np.flatnonzero(np.all((xy > 3.0) & (xy < 17.0), axis=1))
-    centre, normal, flat = mls_planes(data, point_index(data, 1.5) if switch == "1" else search_tree(data),
-                                      data[inside], 0.5)
+    centre, normal, flat = mls_planes(data, search_with(switch, monkeypatch, compiled, data), data[inside], 0.5)
     expected = np.array([-0.4, 0.2, 1.0]) / np.linalg.norm([-0.4, 0.2, 1.0])
     assert flat.all()
     assert np.abs(np.abs(normal @ expected) - 1).max() < 1e-12
@@ -105,12 +111,9 @@ def test_a_point_far_from_all_others_makes_no_plane_and_no_warning(switch, monke
     # 2 km city at 0.5 m warned from its workers).
     import warnings
 
-    monkeypatch.setenv("URBANVOX_JIT", switch)
-    if switch == "1":
-        compiled("mls_kernel")
     rng = np.random.default_rng(5)
     data = np.concatenate([rng.random((200, 3)) * [20.0, 20.0, 0.1], [[24.0, 10.0, 0.05]]])
-    search = point_index(data, 1.5) if switch == "1" else search_tree(data)
+    search = search_with(switch, monkeypatch, compiled, data)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         _, _, flat = mls_planes(data, search, data[-1:], 0.25)
