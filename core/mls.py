@@ -34,6 +34,9 @@ from .vectors import cross
 PLANE_POINTS = 12
 #: Planes fitted per block of rows (temporaries of a few MB).
 FIT_ROWS = 16384
+#: Scatters whose trace is below this are scaled up before their least axis
+#: (:func:`of_normal_size`).
+TINY_TRACE = 2.0 ** -200
 
 
 def mls_planes(data: np.ndarray, tree: PointSearch, at: np.ndarray, sigma: float,
@@ -61,13 +64,48 @@ def mls_planes(data: np.ndarray, tree: PointSearch, at: np.ndarray, sigma: float
         w = np.exp(-(dist / sigma) ** 2)
         w /= np.maximum(w.sum(axis=1, keepdims=True), 1e-300)
         centre, cov = weighted_moments(data, idx, w)
-        normal, values = least_axis(cov)
+        normal, values = least_axis(of_normal_size(cov))
         return centre, normal, values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
 
     # Each plane is fitted from its own rows: blocks of rows run on all cores
     # (the KD-tree searches release the GIL).
     parts = map_blocks(fit, blocks) or [fit(slice(0, 0))]
     return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))
+
+
+def of_normal_size(scatter: np.ndarray) -> np.ndarray:
+    """The scatters (Q, 3, 3), in place, those of a trace below
+    :data:`TINY_TRACE` (and above zero) multiplied by a power of two that
+    brings the trace into [0.5, 1).
+
+    A data point whose neighbours all lie a dozen sigmas away or more weighs
+    them by 1e-63 or less beside itself: the scatter is that small, and the
+    squares and cubes in :func:`least_axis` underflow. Past 16 sigmas its
+    spread's cube is zero (NaN axes, no plane); past 19 sigmas the squares
+    are, and the three eigenvalues come out equal: a "flat" plane with the
+    normal (0, 0, 1), whatever the neighbours' layout. The plane does not
+    depend on the scatter's scale, and a power of two changes no bit of the
+    entries, so the scaled scatter gives the plane of the neighbours as they
+    lie and weigh, as ``np.linalg.eigh`` (which scales such matrices too)
+    finds it: their plane where they lie on one, no plane on a line or where
+    the nearest outweighs the others. Every other scatter is left as it is,
+    to the last bit. A zero trace (no neighbour with any weight, or
+    all of them on the point) stays zero: no plane.
+
+    Examples
+    --------
+    >>> scatter = np.diag(np.ldexp([3.0, 1.0, 0.0], -700))[None]  # trace 2**-698
+    >>> of_normal_size(scatter)[0].diagonal().tolist()
+    [0.375, 0.125, 0.0]
+    >>> of_normal_size(np.diag([4.0, 2.0, 0.0])[None])[0].diagonal().tolist()
+    [4.0, 2.0, 0.0]
+    """
+    trace = scatter[:, 0, 0] + scatter[:, 1, 1] + scatter[:, 2, 2]
+    tiny = np.flatnonzero((trace < TINY_TRACE) & (trace > 0))
+    if len(tiny):
+        _, exponent = np.frexp(trace[tiny])
+        scatter[tiny] = np.ldexp(scatter[tiny], -exponent[:, None, None])
+    return scatter
 
 
 def weighted_moments(data: np.ndarray, idx: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

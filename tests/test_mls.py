@@ -103,20 +103,43 @@ def test_points_on_a_line_make_no_flat_plane():
     assert values.tolist() == [[0.0, 0.0, 0.0]]
 
 
+@pytest.mark.parametrize("radius", [4.0, 5.0, 6.5])  # 16, 20 and 26 sigmas
 @pytest.mark.parametrize("switch", ["0", "1"])
-def test_a_point_far_from_all_others_makes_no_plane_and_no_warning(switch, monkeypatch, compiled):
-    # Its neighbours lie about 16 sigmas away: their weights are near 1e-110
-    # beside its own, the scatter's spread (2.5e-142) is so small that its
-    # cube is zero, and the least axis divides 0 by 0. No plane, quietly (the
-    # 2 km city at 0.5 m warned from its workers).
+def test_a_point_far_from_all_others_makes_the_plane_of_its_neighbours(switch, monkeypatch, compiled, radius):
+    # Its neighbours weigh 1e-111 to 1e-294 beside it, and so does the
+    # scatter: the least axis's cubes or squares underflowed, which gave no
+    # plane (NaN) at 16 sigmas and a flat one with the normal (0, 0, 1) at 20
+    # and 26 sigmas, whatever the neighbours' layout. Now: eleven neighbours
+    # on a circle of a tilted plane make that plane, on a line no plane, and
+    # anywhere around the plane LAPACK finds (which scales such matrices
+    # too). No warning (the 2 km city at 0.5 m warned from its workers).
     import warnings
 
+    normal = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    u = np.cross(normal, [1.0, 0, 0])
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    angle = 2 * np.pi * np.arange(11) / 11
+    circle = radius * (np.cos(angle)[:, None] * u + np.sin(angle)[:, None] * v)
     rng = np.random.default_rng(5)
-    data = np.concatenate([rng.random((200, 3)) * [20.0, 20.0, 0.1], [[24.0, 10.0, 0.05]]])
-    search = search_with(switch, monkeypatch, compiled, data)
+    line = radius * rng.uniform(1.0, 1.2, (11, 1)) * u
+    around = rng.normal(size=(11, 3))
+    around *= radius * rng.uniform(1.0, 1.1, (11, 1)) / np.linalg.norm(around, axis=1, keepdims=True)
+    point = np.array([100.0, 200.0, 30.0])
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        _, _, flat = mls_planes(data, search, data[-1:], 0.25)
+        for ring in (circle, line, around):
+            data = np.concatenate([[point], point + ring])
+            centre, found, flat = mls_planes(data, search_with(switch, monkeypatch, compiled, data), data[:1], 0.25)
+            assert np.isfinite(found).all() and np.abs(centre[0] - point).max() < 1e-9
+            weight = np.exp(-(np.linalg.norm(ring, axis=1) / 0.25) ** 2)
+            values, axes = np.linalg.eigh(np.einsum("k,ki,kj->ij", weight, ring, ring))
+            assert flat[0] == (values[1] > 1e-3 * values[2])
+            assert flat[0] or ring is not circle
+            assert not flat[0] or ring is not line
+            if flat[0]:
+                assert abs(abs(found[0] @ axes[:, 0]) - 1) < 1e-9
+            if ring is circle:
+                assert abs(abs(found[0] @ normal) - 1) < 1e-9
         _, values = least_axis(np.diag([3e-110, 2e-110, 1e-110])[None])
-    assert not flat[0]
-    assert np.isnan(values).all()
+    assert np.isnan(values).all()  # least_axis alone: mls_planes scales such scatters first
