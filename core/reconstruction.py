@@ -7,9 +7,10 @@ files (:mod:`core.export`) and the preview picture (:mod:`core.preview`).
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
-from functools import cached_property
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -19,6 +20,10 @@ from .grid import VoxelGrid
 from .heap import reusing_freed_memory
 from .measure import BlockMeasures
 from .surface import SurfaceModel
+
+
+#: Held while a reconstruction's mesh is triangulated (:attr:`Reconstruction.mesh_triangles`).
+_TRIANGULATING = threading.Lock()
 
 
 @dataclass
@@ -92,41 +97,45 @@ class Reconstruction:
             })
         return rows
 
-    @reusing_freed_memory()
-    def block_surface_wkb(self) -> list[bytes]:
-        """Closed outward surface of every block as MultiPolygonZ WKB, world coordinates.
+    def block_surface_wkb(self) -> Iterator[bytes]:
+        """Closed outward surface of every block as MultiPolygonZ WKB, world
+        coordinates, in the order of :attr:`blocks`: made as they are taken
+        (:func:`core.wkb.multipolygons_z`), so that a writer holds one at a time.
 
         Voxel faces are written as quads; once smoothed, as the two
         triangles of each quad's best split (a moved quad is not planar).
         """
         from .wkb import multipolygons_z
 
-        ids = self.blocks.block_id
-        lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
-        lookup[ids] = np.arange(len(ids))
-        faces, owner = self.layer_model.block_faces()
-        index = lookup[owner]
-        order = np.argsort(index, kind="stable")
-        # take: row gathers faster than indexing (core.vectors).
-        return multipolygons_z(self.grid.to_world(self.mesh.nodes), faces.take(order, axis=0), index[order], len(ids))
+        with reusing_freed_memory():
+            ids = self.blocks.block_id
+            lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
+            lookup[ids] = np.arange(len(ids))
+            faces, owner = self.layer_model.block_faces()
+            index = lookup[owner]
+            order = np.argsort(index, kind="stable")
+            # take: row gathers faster than indexing (core.vectors).
+            nodes = self.grid.to_world(self.mesh.nodes)
+            yield from multipolygons_z(nodes, faces.take(order, axis=0), index[order], len(ids))
 
-    @reusing_freed_memory()
-    def ground_surface_wkb(self, tile: int = 64) -> list[bytes]:
+    def ground_surface_wkb(self, tile: int = 64) -> Iterator[bytes]:
         """The terrain (ground/air faces) as MultiPolygonZ WKB, one per tile of
-        ``tile`` x ``tile`` columns so that no feature is city-sized."""
+        ``tile`` x ``tile`` columns so that no feature is city-sized; made as
+        they are taken, as :meth:`block_surface_wkb`."""
         from .surface import AIR_REGION, GROUND_REGION, unique_pairs
         from .wkb import multipolygons_z
 
-        model = self.layer_model
-        faces = model.interface(GROUND_REGION, AIR_REGION)
-        if len(faces) == 0:
-            return []
-        nodes = self.grid.to_world(model.nodes)
-        centre = model.nodes.take(faces, axis=0).mean(axis=1)
-        key = np.floor((centre[:, :2] - self.grid.origin[:2]) / (tile * self.grid.voxel_size)).astype(np.int64)
-        index = unique_pairs(key)[1]
-        order = np.argsort(index, kind="stable")
-        return multipolygons_z(nodes, faces.take(order, axis=0), index[order], int(index.max()) + 1)
+        with reusing_freed_memory():
+            model = self.layer_model
+            faces = model.interface(GROUND_REGION, AIR_REGION)
+            if len(faces) == 0:
+                return
+            nodes = self.grid.to_world(model.nodes)
+            centre = model.nodes.take(faces, axis=0).mean(axis=1)
+            key = np.floor((centre[:, :2] - self.grid.origin[:2]) / (tile * self.grid.voxel_size)).astype(np.int64)
+            index = unique_pairs(key)[1]
+            order = np.argsort(index, kind="stable")
+            yield from multipolygons_z(nodes, faces.take(order, axis=0), index[order], int(index.max()) + 1)
 
     @property
     def layer_model(self) -> SurfaceModel:
@@ -134,14 +143,20 @@ class Reconstruction:
         (voxel faces are planar), else :attr:`mesh_triangles`."""
         return self.mesh if self.mesh.nodes is self.surface.nodes else self.mesh_triangles
 
-    @cached_property
+    @property
     def mesh_triangles(self) -> SurfaceModel:
-        """``mesh`` with every quad split along its best diagonal, once for all outputs."""
-        # Its block-sized temporaries reuse freed memory, as in the run: with
-        # glibc's defaults each is fresh pages (the 1 km city's first PLY
-        # took 7 s, 6 of them in the kernel).
-        with reusing_freed_memory():
-            return self.mesh.triangulated()
+        """``mesh`` with every quad split along its best diagonal, made once
+        for all outputs, whichever thread asks first (the layers' WKB are
+        made on threads of their own, see :meth:`block_surface_wkb`)."""
+        with _TRIANGULATING:
+            triangles = self.__dict__.get("_mesh_triangles")
+            if triangles is None:
+                # Its block-sized temporaries reuse freed memory, as in the run:
+                # with glibc's defaults each is fresh pages (the 1 km city's
+                # first PLY took 7 s, 6 of them in the kernel).
+                with reusing_freed_memory():
+                    triangles = self.__dict__["_mesh_triangles"] = self.mesh.triangulated()
+            return triangles
 
     @reusing_freed_memory()
     def write_mesh(self, path, binary: bool = False) -> "Path":

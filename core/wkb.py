@@ -3,12 +3,15 @@
 The GIS layers hold each block's surface as a MultiPolygonZ of its faces: a
 city has millions of faces, and a geometry object per face (shapely) took
 longer than writing the rest of the outputs. Every face here is a ring of the
-same number of corners, so its WKB has a fixed size: the polygons are one
-packed structured array, and each multipolygon a header before a slice of it.
+same number of corners, so its WKB has a fixed size: the polygons are rows
+of bytes, a chunk of faces at a time, and each multipolygon a header before
+a slice of them.
 The bytes are those of ``shapely.to_wkb(multipolygons, output_dimension=3)``
 (little endian, the Z flag of extended WKB).
 """
 from __future__ import annotations
+
+from typing import Iterator
 
 import numpy as np
 
@@ -17,8 +20,19 @@ _Z = 0x80000000
 _POLYGON, _MULTIPOLYGON = 3, 6
 
 
-def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_groups: int) -> list[bytes]:
-    """WKB of ``n_groups`` MultiPolygonZ, group ``g`` made of the faces ``group == g``.
+#: Faces whose polygons are made at a time (:func:`multipolygons_z`): a few
+#: MB of records that stay in the cache, where the 1 km synthetic city's
+#: 3.6 M block triangles at once took 390 MB and 0.7-2.7 s, against 0.5 s.
+CHUNK_FACES = 65536
+
+
+def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_groups: int) -> Iterator[bytes]:
+    """WKB of ``n_groups`` MultiPolygonZ, group ``g`` made of the faces
+    ``group == g``, one after the other.
+
+    The polygons are made for about :data:`CHUNK_FACES` faces at a time (at
+    least one group), as the caller takes the multipolygons: a writer holds
+    one group's bytes at a time, not a city's.
 
     Parameters
     ----------
@@ -29,9 +43,9 @@ def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_g
         The multipolygon of each face, ascending.
     n_groups : int
 
-    Returns
-    -------
-    list of bytes
+    Yields
+    ------
+    bytes
         One WKB per group, its polygons in the order of ``faces``.
 
     Examples
@@ -40,29 +54,36 @@ def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_g
     >>> nodes = np.array([[0, 0, 1], [1, 0, 1], [0, 1, 1], [2, 2, 3.0]])
     >>> faces = np.array([[0, 1, 2], [1, 3, 2]])
     >>> rings = nodes[np.concatenate([faces, faces[:, :1]], axis=1)]
-    >>> wkb = multipolygons_z(nodes, faces, np.array([0, 0]), 1)
+    >>> wkb = list(multipolygons_z(nodes, faces, np.array([0, 0]), 1))
     >>> wkb[0] == shapely.to_wkb(shapely.multipolygons(shapely.polygons(rings)), output_dimension=3)
     True
     """
-    n, k = faces.shape
-    polygon = np.dtype([("order", "u1"), ("type", "<u4"), ("rings", "<u4"), ("points", "<u4"),
-                        ("xyz", "<f8", (k + 1, 3))])
-    records = np.empty(n, dtype=polygon)
-    records["order"] = _LITTLE_ENDIAN
-    records["type"] = _Z | _POLYGON
-    records["rings"] = 1
-    records["points"] = k + 1
-    # Each corner straight into the records (no (F, K + 1, 3) table of the
-    # closed rings: hundreds of MB for a city's blocks).
-    xyz = records["xyz"]
-    for corner in range(k):
-        xyz[:, corner] = nodes.take(faces[:, corner], axis=0)  # take: faster rows (core.vectors)
-    xyz[:, k] = xyz[:, 0]
-    del xyz
-    bounds = np.searchsorted(group, np.arange(n_groups + 1))
+    k = faces.shape[1]
+    # Each polygon: byte order, type, one ring, its K + 1 points; then the
+    # coordinates, unaligned after those 13 bytes.
+    prefix = np.array([(_LITTLE_ENDIAN, _Z | _POLYGON, 1, k + 1)],
+                      dtype=[("order", "u1"), ("type", "<u4"), ("rings", "<u4"), ("points", "<u4")])
+    prefix = prefix.view(np.uint8)
+    size = prefix.size + 24 * (k + 1)
     header = np.dtype([("order", "u1"), ("type", "<u4"), ("count", "<u4")])
-    out = []
-    for g in range(n_groups):
-        head = np.array([(_LITTLE_ENDIAN, _Z | _MULTIPOLYGON, bounds[g + 1] - bounds[g])], dtype=header)
-        out.append(head.tobytes() + records[bounds[g]:bounds[g + 1]].tobytes())
-    return out
+    bounds = np.searchsorted(group, np.arange(n_groups + 1))
+    first = 0
+    while first < n_groups:
+        stop = min(n_groups, max(first + 1, int(np.searchsorted(bounds, bounds[first] + CHUNK_FACES, "right")) - 1))
+        chunk = faces[bounds[first]:bounds[stop]]
+        # The closed rings' coordinates in a table of their own (aligned, so
+        # the gathers run at full speed), then copied after the prefixes.
+        xyz = np.empty((len(chunk), k + 1, 3))
+        for corner in range(k):
+            xyz[:, corner] = nodes.take(chunk[:, corner], axis=0)  # take: faster rows (core.vectors)
+        xyz[:, k] = xyz[:, 0]
+        records = np.empty((len(chunk), size), np.uint8)
+        records[:, :prefix.size] = prefix
+        records[:, prefix.size:] = xyz.view(np.uint8).reshape(len(chunk), size - prefix.size)
+        records = records.reshape(-1)
+        for g in range(first, stop):
+            head = np.array([(_LITTLE_ENDIAN, _Z | _MULTIPOLYGON, bounds[g + 1] - bounds[g])], dtype=header)
+            start = (bounds[g] - bounds[first]) * size
+            # One copy of the records (join takes the memory as it is).
+            yield b"".join((head.tobytes(), memoryview(records[start:start + (bounds[g + 1] - bounds[g]) * size])))
+        first = stop
