@@ -24,11 +24,13 @@ everything is written as JSON to ``benchmarks/results/``.
 Stage names: the pipeline's laps (``core.pipeline.reconstruct_points``) are grid, ground
 (ground level and, inside it, the voxel binning of the building points: ``voxelise``,
 timed apart on the same points), classify, blocks, eliminate (elimination), surface
-(surfaces), smooth (smoothing), project (projection), measure; read and export are timed
-around them: a PLY, part of end to end, then apart the gmsh .msh, the finite-element format,
-as text and in binary (the mesh triangulated for the PLY serves them too). Rates: read in
+(surfaces), smooth (smoothing), project (projection), measure; read, export and layers
+are timed around them: a PLY and the GIS layers' content (attribute rows and the WKB of the
+blocks, footprints and ground, as the Processing algorithms write them), both part of end to
+end, then apart the gmsh .msh, the finite-element format, as text and in binary (the mesh
+triangulated for the PLY serves them all). Rates: read in
 points read (mesh: triangles), grid/ground in points, voxelise in building points, the voxel
-stages in voxels of the grid(s), and smoothing, projection, measure and export in faces
+stages in voxels of the grid(s), and smoothing, projection, measure, export and layers in faces
 (quads) of the surface.
 """
 from __future__ import annotations
@@ -52,23 +54,24 @@ CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "urbanv
 DENSITY = 12.0
 
 STAGES = ["read", "sample", "grid", "ground", "classify", "blocks", "eliminate", "surface", "smooth",
-          "project", "measure", "export", "export_msh", "export_msh_binary"]
+          "project", "measure", "export", "layers", "export_msh", "export_msh_binary"]
 #: The issue's names for the pipeline's laps.
 STAGE_NAMES = {"ground": "ground+voxelise", "eliminate": "elimination", "surface": "surfaces",
                "smooth": "smoothing", "project": "projection", "export_msh": "gmsh .msh",
-               "export_msh_binary": "binary .msh"}
+               "layers": "layers' WKB", "export_msh_binary": "binary .msh"}
 #: What a stage's rate counts.
 RATE_UNIT = {"read": "read", "sample": "points", "grid": "points", "ground": "points",
              "classify": "voxels", "blocks": "voxels", "eliminate": "voxels", "surface": "voxels",
              "smooth": "faces", "project": "faces", "measure": "faces", "export": "faces",
-             "export_msh": "faces", "export_msh_binary": "faces"}
+             "layers": "faces", "export_msh": "faces", "export_msh_binary": "faces"}
 #: Functions whose pyinstrument subtree is a stage (``--profile``).
 STAGE_FUNCTIONS = {"read": {"read_point_clouds", "read_triangles"}, "sample": {"sample_thinned"},
                    "ground": {"column_ground_level", "occupied_cells"}, "classify": {"classify_voxels"},
                    "blocks": {"blocks_above_thresholds"}, "eliminate": {"eliminate_unsupported"},
                    "surface": {"from_regions", "block_columns"}, "smooth": {"smooth"},
                    "project": {"project_nodes"}, "measure": {"measure_blocks", "nearest_distance"},
-                   "export": {"write_mesh"}}
+                   "export": {"write_mesh"},
+                   "layers": {"block_rows", "block_surface_wkb", "footprint_wkb", "ground_surface_wkb"}}
 
 
 def montpellier_tiles() -> list[Path]:
@@ -218,6 +221,15 @@ def _run_once(spec: dict, params, airborne: bool):
         result.write_mesh(Path(tmp) / "mesh.ply")
         stages["export"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
         report["export_mb"] = (Path(tmp) / "mesh.ply").stat().st_size / 1e6
+        # The GIS layers' content, as the Processing algorithms write it with
+        # the ground layer: the attribute rows and every geometry's WKB (QGIS
+        # then parses and writes them, which is not the core's time).
+        lap = time.perf_counter()
+        rows = result.block_rows()
+        report["layers_mb"] = sum(len(wkb) for layer in (result.block_surface_wkb(), result.footprint_wkb(),
+                                                         result.ground_surface_wkb()) for wkb in layer) / 1e6
+        stages["layers"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
+        del rows
         report["e2e_s"] = time.perf_counter() - start
         # The finite-element format (the Processing dialog's first choice), apart from end to end.
         lap = time.perf_counter()
@@ -267,6 +279,10 @@ def profile_slowest(spec: dict, stages: dict, ground, building, crs, params, air
     if slowest == "export":
         with tempfile.TemporaryDirectory() as tmp:
             result.write_mesh(Path(tmp) / "mesh.ply")
+    if slowest == "layers":
+        for layer in (result.block_surface_wkb(), result.footprint_wkb(), result.ground_surface_wkb()):
+            for _ in layer:
+                pass
     session = profiler.stop()
     RESULTS.mkdir(parents=True, exist_ok=True)
     html = RESULTS / f"profile-{spec['name']}-{spec['voxel']:g}m.html"
@@ -388,7 +404,7 @@ def print_case(name: str, voxel: float, r: dict) -> None:
 
 def print_summary(rows: list[dict]) -> None:
     cols = ["read", "ground", "classify", "blocks", "eliminate", "surface", "smooth", "project", "export",
-            "export_msh", "export_msh_binary"]
+            "layers", "export_msh", "export_msh_binary"]
     print("\nSummary (seconds; fast binning in M pts/s, ratios = baseline time / ours)")
     head = (f"{'case':<22} {'e2e':>7} " + " ".join(f"{STAGE_NAMES.get(c, c)[:9]:>9}" for c in cols)
             + f" {'RSS MB':>7} {'fastMp/s':>8} {'xO3D':>6} {'xuniq':>6} {'scipy':>6} {'skimg':>6} {'copyGB/s':>8}")
