@@ -28,7 +28,7 @@ import numpy as np
 T = TypeVar("T")
 R = TypeVar("R")
 
-_pool: tuple[int, ThreadPoolExecutor] | None = None  # (threads, pool)
+_pools: dict[int, ThreadPoolExecutor] = {}  # by number of threads
 _background: ThreadPoolExecutor | None = None
 _lock = threading.Lock()
 
@@ -155,11 +155,16 @@ def counted_then_listed(run: Callable[[slice, np.ndarray, int], int], blocks: Se
 
 
 def _executor(threads: int) -> ThreadPoolExecutor:
-    """The pool of ``threads`` threads, made once (again if the count changes)."""
-    global _pool
+    """The pool of ``threads`` threads, made once for each count.
+
+    A pool is never shut down: another thread may have it in hand. The
+    kernels' preload (:func:`core.jit.preload`) warmed them up on the pool of
+    the cores while a test asked for three threads, whose new pool shut the
+    other down under the preload ("cannot schedule new futures after
+    shutdown"). A process sees one or two counts.
+    """
     with _lock:
-        if _pool is None or _pool[0] != threads:
-            if _pool is not None:
-                _pool[1].shutdown(wait=False)
-            _pool = (threads, ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox"))
-        return _pool[1]
+        pool = _pools.get(threads)
+        if pool is None:
+            pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox")
+        return pool

@@ -75,3 +75,12 @@ def test_the_pipeline_gives_the_same_model_with_one_thread_or_more(monkeypatch, 
     assert len(results[0].blocks) > 20
     assert np.array_equal(results[0].mesh.nodes, results[1].mesh.nodes)
     assert results[0].block_rows() == results[1].block_rows()
+
+
+def test_a_pool_in_hand_still_runs_after_another_count_is_asked(monkeypatch):
+    # The kernels' preload held the pool of the cores while a test asked for
+    # three threads: the new pool shut the old one down under it.
+    held = parallel._executor(2)
+    monkeypatch.setenv("URBANVOX_THREADS", "3")
+    assert np.concatenate(map_blocks(lambda rows: np.arange(rows.start, rows.stop), row_blocks(10, 4))).sum() == 45
+    assert list(held.map(abs, [-1, -2, -3])) == [1, 2, 3]
