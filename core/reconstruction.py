@@ -177,23 +177,16 @@ class Reconstruction:
         return write_preview(path, panels, heights)
 
     def footprint_wkb(self) -> list[bytes]:
-        """Footprint of every block (union of its columns) as Polygon WKB."""
+        """Footprint of every block (the outline of its columns, :mod:`core.footprint`)
+        as Polygon WKB, in the order of :attr:`blocks`."""
         import shapely
 
-        h = self.grid.voxel_size
-        b, i, j = self.footprint_columns.T
-        x0 = self.grid.offset[0] + self.grid.origin[0] + i * h
-        y0 = self.grid.offset[1] + self.grid.origin[1] + j * h
-        boxes = shapely.box(x0, y0, x0 + h, y0 + h)
-        cuts = np.searchsorted(b, self.blocks.block_id, side="left")
-        ends = np.searchsorted(b, self.blocks.block_id, side="right")
-        out = []
-        for start, stop in zip(cuts, ends):
-            shape = shapely.coverage_union_all(boxes[start:stop])
-            if shape.geom_type == "MultiPolygon":  # only touching at a corner: keep the largest
-                shape = max(shape.geoms, key=lambda g: g.area)
-            out.append(shapely.to_wkb(shape, output_dimension=2))  # GEOS < 3.12 in QGIS: no 4D
-        return out
+        from .footprint import column_outlines
+
+        corner = self.grid.offset[:2] + self.grid.origin[:2]
+        outlines = column_outlines(self.footprint_columns, np.asarray(self.blocks.block_id), corner,
+                                   self.grid.voxel_size)
+        return list(shapely.to_wkb(outlines, output_dimension=2))  # GEOS < 3.12 in QGIS: no 4D
 
 
 def _plain(value: float) -> float | None:
