@@ -38,9 +38,11 @@ def column_outlines(columns: np.ndarray, block_ids: np.ndarray, corner: np.ndarr
     -------
     ndarray of shapely geometries (B,)
         The union of each block's column squares, with its courtyards as
-        holes. A block whose columns touch only at corners (a MultiPolygon)
-        keeps its largest part, as a layer of polygons needs; a block without
-        columns gets an empty polygon.
+        holes; an empty polygon for a block without columns. A block's
+        columns are side-connected (its voxels are face-connected), so the
+        union is one polygon. For columns that only touch at corners, not a
+        block's, GEOS's even-odd rule may also cover a cell enclosed by them;
+        a MultiPolygon keeps its largest part, as a layer of polygons needs.
 
     Examples
     --------
@@ -57,11 +59,14 @@ def column_outlines(columns: np.ndarray, block_ids: np.ndarray, corner: np.ndarr
     """
     import shapely
 
+    columns = np.asarray(columns).reshape(-1, 3)
     position = np.full(int(max(block_ids.max(initial=0), columns[:, 0].max(initial=0))) + 1, -1, np.int64)
     position[block_ids] = np.arange(len(block_ids))
     block, i, j = position[columns[:, 0]], columns[:, 1].astype(np.int64), columns[:, 2].astype(np.int64)
     keep = block >= 0
     block, i, j = block[keep], i[keep], j[keep]
+    if len(block) == 0:  # no block, or none with a column (all dropped by the thresholds)
+        return np.array([shapely.Polygon() for _ in range(len(block_ids))], dtype=object)
     # A column's key, with a margin of one column on every side for its neighbours.
     i0, j0 = int(i.min(initial=0)) - 1, int(j.min(initial=0)) - 1
     ni, nj = int(i.max(initial=0)) - i0 + 2, int(j.max(initial=0)) - j0 + 2

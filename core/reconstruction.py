@@ -115,8 +115,9 @@ class Reconstruction:
             index = lookup[owner]
             order = np.argsort(index, kind="stable")
             # take: row gathers faster than indexing (core.vectors).
-            nodes = self.grid.to_world(self.mesh.nodes)
-            yield from multipolygons_z(nodes, faces.take(order, axis=0), index[order], len(ids))
+            faces, index = faces.take(order, axis=0), index[order]
+            del owner, order, lookup  # not held while the layer is written
+            yield from multipolygons_z(self.grid.to_world(self.mesh.nodes), faces, index, len(ids))
 
     def ground_surface_wkb(self, tile: int = 64) -> Iterator[bytes]:
         """The terrain (ground/air faces) as MultiPolygonZ WKB, one per tile of
@@ -135,7 +136,9 @@ class Reconstruction:
             key = np.floor((centre[:, :2] - self.grid.origin[:2]) / (tile * self.grid.voxel_size)).astype(np.int64)
             index = unique_pairs(key)[1]
             order = np.argsort(index, kind="stable")
-            yield from multipolygons_z(nodes, faces.take(order, axis=0), index[order], int(index.max()) + 1)
+            faces, index = faces.take(order, axis=0), index[order]
+            del centre, key, order  # not held while the layer is written
+            yield from multipolygons_z(nodes, faces, index, int(index[-1]) + 1)
 
     @property
     def layer_model(self) -> SurfaceModel:

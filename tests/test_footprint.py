@@ -71,3 +71,11 @@ def test_a_straight_side_is_one_segment_and_a_block_without_columns_is_empty():
     one, none = column_outlines(columns, np.array([1, 2]), np.array([10.0, 20.0]), 2.0)
     assert shapely.get_num_coordinates(one) == 5 and one.area == 120.0
     assert none.is_empty
+
+
+def test_no_columns_give_empty_polygons():
+    # Every block dropped by the thresholds: no column, and no footprint (the
+    # layer gets none); blocks without columns get empty polygons.
+    none = np.zeros((0, 3), np.int64)
+    assert len(column_outlines(none, np.zeros(0, np.int64), np.zeros(2), 1.0)) == 0
+    assert all(outline.is_empty for outline in column_outlines(none, np.array([4, 9]), np.zeros(2), 1.0))

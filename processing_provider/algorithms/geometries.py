@@ -64,10 +64,9 @@ class GeometryFeed:
         self.close()
 
     def close(self):
-        """Stop making geometries, and wait for the thread."""
+        """Stop making geometries, and wait for the thread (which frees the last ones)."""
         self._stop.set()
         self._thread.join()
-        self._written.clear()
 
     def __iter__(self):
         while True:
@@ -87,11 +86,14 @@ class GeometryFeed:
             for wkb in source():
                 if not self._put(geometry_from_wkb(wkb)):
                     return
-            if self._put(_END):
-                while not self._stop.wait(0.05):  # free what the writer still hands back
-                    self._free()
-        except Exception as exc:  # raised in the writer's thread
+            self._put(_END)
+        except BaseException as exc:  # raised in the writer's thread, which would wait forever otherwise
             self._put(exc)
+        finally:
+            # Free what the writer hands back until it leaves, then the rest.
+            while not self._stop.wait(0.05):
+                self._free()
+            self._written.clear()
 
     def _put(self, item):
         """Queue ``item`` unless the writer has left; whether it was queued."""

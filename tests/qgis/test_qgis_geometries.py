@@ -57,6 +57,22 @@ def test_an_error_of_the_source_is_raised_to_the_writer_after_the_geometries_bef
     assert got == 3
 
 
+def test_an_exception_beyond_exception_still_reaches_the_writer(urbanvox_plugin):
+    # Caught as Exception only, it ended the feed's thread without a word, and
+    # the writer waited for the next geometry forever.
+    from urbanvox.processing_provider.algorithms.geometries import GeometryFeed
+
+    class Interrupted(BaseException):
+        pass
+
+    def source():
+        raise Interrupted()
+        yield
+
+    with pytest.raises(Interrupted), GeometryFeed(source) as feed:
+        list(feed)
+
+
 def test_a_writer_that_stops_early_stops_the_feed(urbanvox_plugin):
     # A sink that fails mid-layer: leaving the feed ends its thread, which was
     # waiting with a full queue on an endless source.
