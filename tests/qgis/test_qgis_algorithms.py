@@ -126,6 +126,24 @@ def test_thresholds_drop_blocks(processing, district, tmp_path):
     assert min(f["height"] for f in features) >= 20.0
 
 
+def test_thresholds_that_drop_every_block_give_empty_layers(processing, district, tmp_path):
+    # No block left: the layers are written, empty, with the ground (the
+    # footprints of no column raised an IndexError once).
+    gpkg = tmp_path / "none.gpkg"
+    feedback = make_feedback()
+    results = processing.run(
+        "urbanvox:reconstructfrompointcloud",
+        {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "MIN_HEIGHT": 500.0, **gpkg_outputs(gpkg),
+         "OUTPUT_GROUND": gpkg_sink(gpkg, "ground")},
+        feedback=feedback,
+    )
+    assert results["BLOCK_COUNT"] == 0 and results["TOTAL_VOLUME"] == 0.0
+    for table in ("blocks", "footprints"):
+        assert read_layer(gpkg, table)[1] == []
+    assert len(read_layer(gpkg, "ground")[1]) > 0
+    assert any("No building block" in warning for warning in feedback.warnings)
+
+
 def test_crs_parameter_overrides_a_missing_header_crs(processing, district, tmp_path):
     las = tmp_path / "no_crs.las"
     district.district.write_las(las, density=2.0, crs=False)
