@@ -68,15 +68,14 @@ def column_outlines(columns: np.ndarray, block_ids: np.ndarray, corner: np.ndarr
     if len(block) == 0:  # no block, or none with a column (all dropped by the thresholds)
         return np.array([shapely.Polygon() for _ in range(len(block_ids))], dtype=object)
     # A column's key, with a margin of one column on every side for its neighbours.
-    i0, j0 = int(i.min(initial=0)) - 1, int(j.min(initial=0)) - 1
-    ni, nj = int(i.max(initial=0)) - i0 + 2, int(j.max(initial=0)) - j0 + 2
+    i0, j0 = int(i.min()) - 1, int(j.min()) - 1
+    ni, nj = int(i.max()) - i0 + 2, int(j.max()) - j0 + 2
     key = (block * ni + (i - i0)) * nj + (j - j0)
     known = np.sort(key)
 
     def covered(di: int, dj: int) -> np.ndarray:
         wanted = key + di * nj + dj
-        at = np.minimum(np.searchsorted(known, wanted), max(len(known) - 1, 0))
-        return known[at] == wanted if len(known) else np.zeros(0, bool)
+        return known[np.minimum(np.searchsorted(known, wanted), len(known) - 1)] == wanted
 
     owners, starts, ends = [], [], []
     for (di, dj), along, far in _SIDES:
