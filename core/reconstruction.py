@@ -44,6 +44,8 @@ class Reconstruction:
     warnings: list[str] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     stats: dict = field(default_factory=dict)
+    #: :attr:`mesh_triangles`, once made.
+    _triangles: SurfaceModel | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def metres_per_unit(self) -> float:
@@ -152,14 +154,13 @@ class Reconstruction:
         for all outputs, whichever thread asks first (the layers' WKB are
         made on threads of their own, see :meth:`block_surface_wkb`)."""
         with _TRIANGULATING:
-            triangles = self.__dict__.get("_mesh_triangles")
-            if triangles is None:
+            if self._triangles is None:
                 # Its block-sized temporaries reuse freed memory, as in the run:
                 # with glibc's defaults each is fresh pages (the 1 km city's
                 # first PLY took 7 s, 6 of them in the kernel).
                 with reusing_freed_memory():
-                    triangles = self.__dict__["_mesh_triangles"] = self.mesh.triangulated()
-            return triangles
+                    self._triangles = self.mesh.triangulated()
+            return self._triangles
 
     @reusing_freed_memory()
     def write_mesh(self, path, binary: bool = False) -> "Path":
