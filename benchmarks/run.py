@@ -46,6 +46,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from .report import print_case, print_summary
+
 ROOT = Path(__file__).resolve().parents[1]
 DATA = Path(os.environ.get("URBANVOX_SHARED_DATA", ROOT.parent / "shared" / "data"))
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -53,17 +55,6 @@ CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "urbanv
 #: Pulses per m² of the generated city (core.synthetic_city's default): ~12.5 M points per km².
 DENSITY = 12.0
 
-STAGES = ["read", "sample", "grid", "ground", "classify", "blocks", "eliminate", "surface", "smooth",
-          "project", "measure", "export", "layers", "export_msh", "export_msh_binary"]
-#: The issue's names for the pipeline's laps.
-STAGE_NAMES = {"ground": "ground+voxelise", "eliminate": "elimination", "surface": "surfaces",
-               "smooth": "smoothing", "project": "projection", "export_msh": "gmsh .msh",
-               "layers": "layers' WKB", "export_msh_binary": "binary .msh"}
-#: What a stage's rate counts.
-RATE_UNIT = {"read": "read", "sample": "points", "grid": "points", "ground": "points",
-             "classify": "voxels", "blocks": "voxels", "eliminate": "voxels", "surface": "voxels",
-             "smooth": "faces", "project": "faces", "measure": "faces", "export": "faces",
-             "layers": "faces", "export_msh": "faces", "export_msh_binary": "faces"}
 #: Functions whose pyinstrument subtree is a stage (``--profile``).
 STAGE_FUNCTIONS = {"read": {"read_point_clouds", "read_triangles"}, "sample": {"sample_thinned"},
                    "ground": {"column_ground_level", "occupied_cells"}, "classify": {"classify_voxels"},
@@ -225,11 +216,8 @@ def _run_once(spec: dict, params, airborne: bool):
         # the ground layer: the attribute rows and every geometry's WKB (QGIS
         # then parses and writes them, which is not the core's time).
         lap = time.perf_counter()
-        rows = result.block_rows()
-        report["layers_mb"] = sum(len(wkb) for layer in (result.block_surface_wkb(), result.footprint_wkb(),
-                                                         result.ground_surface_wkb()) for wkb in layer) / 1e6
+        report["layers_mb"] = _layers_mb(result)
         stages["layers"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
-        del rows
         report["e2e_s"] = time.perf_counter() - start
         # The finite-element format (the Processing dialog's first choice), apart from end to end.
         lap = time.perf_counter()
@@ -244,6 +232,14 @@ def _run_once(spec: dict, params, airborne: bool):
     report["clusters"] = int(result.stats.get("clusters", 1))
     report["warnings"] = result.warnings
     return report, result, ground, building, crs
+
+
+def _layers_mb(result) -> float:
+    """Make the GIS layers' content as the Processing algorithms write it (with the
+    ground layer): the attribute rows and every geometry's WKB; its MB of WKB."""
+    result.block_rows()
+    return sum(len(wkb) for layer in (result.block_surface_wkb(), result.footprint_wkb(), result.ground_surface_wkb())
+               for wkb in layer) / 1e6
 
 
 def run_baselines(spec: dict, ground, building, crs, params, airborne: bool) -> dict:
@@ -280,9 +276,7 @@ def profile_slowest(spec: dict, stages: dict, ground, building, crs, params, air
         with tempfile.TemporaryDirectory() as tmp:
             result.write_mesh(Path(tmp) / "mesh.ply")
     if slowest == "layers":
-        for layer in (result.block_surface_wkb(), result.footprint_wkb(), result.ground_surface_wkb()):
-            for _ in layer:
-                pass
+        _layers_mb(result)
     session = profiler.stop()
     RESULTS.mkdir(parents=True, exist_ok=True)
     html = RESULTS / f"profile-{spec['name']}-{spec['voxel']:g}m.html"
@@ -326,106 +320,7 @@ def _render(tree: dict, total: float, depth: int, lines: list[str], max_depth: i
         _render(children, total, depth + 1, lines, max_depth)
 
 
-# --- the parent: cases in child processes, tables, JSON -------------------------------
-
-def _fmt_rate(count: float, seconds: float) -> str:
-    if not seconds or seconds <= 0 or not count:
-        return ""
-    rate = count / seconds
-    for scale, suffix in ((1e9, "G"), (1e6, "M"), (1e3, "k")):
-        if rate >= scale:
-            return f"{rate / scale:6.1f} {suffix}"
-    return f"{rate:6.0f}  "
-
-
-def _ratio(a, b) -> str:
-    """``a / b`` as "12.3x", or the reason there is none."""
-    if isinstance(a, str):
-        return a
-    if isinstance(b, str):
-        return b
-    return f"{a / b:.1f}x" if b else "-"
-
-
-def print_case(name: str, voxel: float, r: dict) -> None:
-    points = r["n_ground"] + r["n_building"]
-    unit_count = {"read": r["n_read"], "points": points, "voxels": r["voxels"], "faces": r["faces"]}
-    print(f"\n{name} @ {voxel:g} m: {r['blocks']:,} blocks, {r['n_read']:,} {'points' if 'sample' not in r['stages'] else 'triangles'} read "
-          f"({r['n_ground']:,} ground, {r['n_building']:,} building), {r['voxels']:,} voxels"
-          f"{' in %d grids' % r['clusters'] if r['clusters'] > 1 else ''}, {r['faces']:,} faces; "
-          f"end to end {r['e2e_s']:.2f} s, peak RSS {r['peak_rss_mb']:,.0f} MB")
-    if "runs" in r:
-        print(f"  figures of the last of {len(r['runs'])} runs in one process; end to end (method) of each: "
-              + ", ".join(f"{run['e2e_s']:.2f} ({run['pipeline_s']:.2f})" for run in r["runs"]) + " s")
-    print(f"  {'stage':<16} {'seconds':>8} {'rate':>9} {'per s':<7} {'peak RSS MB':>11}")
-    for stage in STAGES:
-        if stage not in r["stages"]:
-            continue
-        s = r["stages"][stage]
-        unit = RATE_UNIT[stage]
-        label = "tri" if (unit == "read" and "sample" in r["stages"]) else {"read": "pts", "points": "pts",
-                                                                           "voxels": "voxels", "faces": "faces"}[unit]
-        print(f"  {STAGE_NAMES.get(stage, stage):<16} {s['s']:8.2f} {_fmt_rate(unit_count[unit], s['s']):>9} "
-              f"{label:<7} {s['rss']:11,.0f}")
-    b = r.get("baselines")
-    if not b:
-        return
-    bn = b["binning"]
-    print(f"  {'voxelise':<16} {bn['unique_s']:8.2f} {_fmt_rate(bn['points'], bn['unique_s']):>9} pts      "
-          f"(np.unique reference: a sort)")
-    print(f"  {'voxelise fast':<16} {bn['fast_s']:8.3f} {_fmt_rate(bn['points'], bn['fast_s']):>9} pts      "
-          f"(VoxelGrid.occupied_cells, the pipeline's, inside ground; file order; shuffled {_fmt_rate(bn['points'], bn['fast_shuffled_s']).strip()} pts/s; "
-          f"same cells: {bn['equal']})")
-    o3d_s = bn["open3d_s"]
-    o3d_txt = o3d_s if isinstance(o3d_s, str) else (f"{o3d_s:.3f} s ({_fmt_rate(bn['points'], o3d_s).strip()} pts/s, "
-                                                     f"+{bn['open3d_convert_s']:.3f} s numpy->Vector3dVector)")
-    print(f"  binning vs Open3D VoxelGrid.create_from_point_cloud: {o3d_txt}; "
-          f"fast is {_ratio(o3d_s, bn['fast_s'])} Open3D, {_ratio(bn['unique_s'], bn['fast_s'])} np.unique; "
-          f"np.unique is {_ratio(o3d_s, bn['unique_s'])} Open3D")
-    if "trimesh" in b:
-        tm = b["trimesh"]
-        ours = r["stages"]["sample"]["s"] + bn["fast_s"]
-        tm_s = tm["trimesh_s"]
-        tm_txt = tm_s if isinstance(tm_s, str) else f"{tm_s:.3f} s"
-        print(f"  mesh voxelising vs trimesh mesh.voxelized(pitch): {tm_txt} vs ours (sample + fast binning) "
-              f"{ours:.3f} s: ours {_ratio(tm_s, ours)} faster")
-    lb = b["labelling"]
-    sk = lb["skimage_s"]
-    print(f"  labelling (6-conn., building mask, {lb['voxels']:,} voxels): label_blocks {lb['ours_s']:.3f} s "
-          f"({_fmt_rate(lb['voxels'], lb['ours_s']).strip()} voxels/s), scipy.ndimage.label {lb['scipy_s']:.3f} s "
-          f"({_ratio(lb['scipy_s'], lb['ours_s'])}), skimage.measure.label "
-          f"{sk if isinstance(sk, str) else f'{sk:.3f} s'} ({_ratio(sk, lb['ours_s'])}); "
-          f"mask alone {lb['mask_s']:.3f} s; same count: {lb['equal']}")
-    for what, c in b["copy"].items():
-        floor = c["gb_per_s"] * 1e9 / 24 if what == "points" else None
-        extra = f"; binning floor (read 24 B/point once) {floor / 1e6:,.0f} M pts/s" if floor else ""
-        print(f"  numpy copy of {what} ({c['bytes'] / 1e6:,.0f} MB): {c['gb_per_s']:.1f} GB/s{extra}")
-
-
-def print_summary(rows: list[dict]) -> None:
-    cols = ["read", "ground", "classify", "blocks", "eliminate", "surface", "smooth", "project", "export",
-            "layers", "export_msh", "export_msh_binary"]
-    print("\nSummary (seconds; fast binning in M pts/s, ratios = baseline time / ours)")
-    head = (f"{'case':<22} {'e2e':>7} " + " ".join(f"{STAGE_NAMES.get(c, c)[:9]:>9}" for c in cols)
-            + f" {'RSS MB':>7} {'fastMp/s':>8} {'xO3D':>6} {'xuniq':>6} {'scipy':>6} {'skimg':>6} {'copyGB/s':>8}")
-    print(head)
-    for row in rows:
-        r = row.get("report")
-        label = f"{row['case']}@{row['voxel']:g}"
-        if r is None:
-            print(f"{label:<22} {row['status']}")
-            continue
-        cells = " ".join(f"{r['stages'][c]['s'] if c in r['stages'] else float('nan'):9.2f}" for c in cols)
-        b = r.get("baselines", {})
-        bn, lb, cp = b.get("binning", {}), b.get("labelling", {}), b.get("copy", {})
-        extra = ""
-        if bn:
-            extra = (f" {bn['points'] / bn['fast_s'] / 1e6 if bn['fast_s'] else float('nan'):8.1f}"
-                     f" {_ratio(bn['open3d_s'], bn['fast_s'])[:6]:>6} {_ratio(bn['unique_s'], bn['fast_s']):>6}"
-                     f" {_ratio(lb['scipy_s'], lb['ours_s']):>6} {_ratio(lb['skimage_s'], lb['ours_s'])[:6]:>6}"
-                     f" {cp.get('points', {}).get('gb_per_s', float('nan')):8.1f}")
-        print(f"{label:<22} {r['e2e_s']:7.1f} {cells} {r['peak_rss_mb']:7.0f}{extra}")
-
+# --- the parent: cases in child processes, JSON (the tables: benchmarks.report) -----
 
 def fresh_memory_ms_per_mb(nbytes: int = 256 * 2**20) -> float:
     """Milliseconds per MB this machine takes to hand out fresh memory: the
