@@ -53,8 +53,9 @@ from .errors import Cancelled
 #: The reader's comes first: :func:`preload` loads them in this order while
 #: a file is read, and the reader uses its own once it is loaded.
 KERNELS = ("las_kernel", "blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
-           "manifold_kernel", "measure_kernel", "mls_kernel", "neighbours_kernel", "projection_kernel",
-           "quality_kernel", "smooth_kernel", "support_kernel", "surface_kernel", "tiles_kernel", "topology_kernel")
+           "manifold_kernel", "measure_kernel", "mls_kernel", "neighbours_kernel", "normals_kernel",
+           "projection_kernel", "quality_kernel", "smooth_kernel", "support_kernel", "surface_kernel",
+           "tiles_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

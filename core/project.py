@@ -21,6 +21,7 @@ With numba (:mod:`core.jit`) the searches go through a compiled index of
 columns (:mod:`core.neighbours_kernel`) and step 1 runs compiled, the
 nearest points and the choice among them in one pass per node
 (:mod:`core.projection_kernel`): the same points, in less than half the time.
+The normals are summed compiled too (:mod:`core.normals_kernel`).
 """
 from __future__ import annotations
 
@@ -67,8 +68,8 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     >>> node_normals(nodes, np.array([[0, 1, 2, 3]]), 4)[0]
     array([0., 0., 1.])
     """
-    # The same sums, without a pass over all nodes per corner and coordinate (core.projection_kernel).
-    found = jit.run("projection_kernel", "node_normals", nodes, quads, n, size=len(quads))
+    # The same sums, without a pass over all nodes per corner and coordinate (core.normals_kernel).
+    found = jit.run("normals_kernel", "node_normals", nodes, quads, n, size=len(quads))
     if found is not None:
         return found
     normal = np.empty((3, len(quads)))
@@ -102,6 +103,11 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
     n = len(nodes)
     if select is None:
         select = np.ones(n, dtype=bool)
+    # The same sums on the model's quads as they are, not on gathered copies (core.normals_kernel).
+    found = jit.run("normals_kernel", "outward_node_normals", nodes, model.quads, model.regions,
+                    roles.on_block, select, GROUND_REGION, size=len(model.quads))
+    if found is not None:
+        return found
     normal = np.zeros((n, 3))
     # The faces of a surface are gathered only where a wanted node follows
     # it: the projection asks for the blocks' nodes, then mostly the ground's.

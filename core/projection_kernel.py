@@ -1,15 +1,7 @@
-"""Compiled steps of the projection (numba, :mod:`core.jit`): the nodes'
-normals, and the data points a node tries.
+"""Compiled step 1 of the projection (numba, :mod:`core.jit`): the data
+points a node tries; its normal is :mod:`core.normals_kernel`'s.
 
-The normals (:func:`node_normals`): numpy sums the quads' unit normals into
-their nodes with twelve ``bincount`` passes (a corner column and a
-coordinate each), 1 s for the two projections of the 1 km synthetic city.
-Here the quads' normals are made in one pass on all cores, and summed as
-the ``bincount`` passes add them (per corner column, in quad order; the
-columns one after the other) in passes over the quads only, so the sums are
-numpy's to the last bit: 0.61 -> 0.23 s on 2.6 M lattice quads.
-
-Step 1 of the projection (:mod:`core.project`): among a node's 24 nearest
+Among a node's 24 nearest
 data points, the few closest to the line through the node along its normal,
 ties broken by the points' coordinates. numpy does it with a (Q, 24) table
 of distances, a partial sort, a sort of the first few columns and a full
@@ -30,7 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .neighbours_kernel import BOX, before, column_range, compiled, length, maximum, rising_from
+from .neighbours_kernel import BOX, before, column_range, compiled, length, rising_from
 from .parallel import map_blocks, thread_blocks
 
 #: Nodes per call of the fused search (blocks on all cores).
@@ -156,29 +148,6 @@ def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radi
     return out
 
 
-def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
-    """:func:`core.project.node_normals`: unit normal of every node, the mean
-    of the unit normals of its quads (a zero vector where no quad touches it).
-
-    Examples
-    --------
-    >>> nodes = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
-    >>> node_normals(nodes, np.array([[0, 1, 2, 3]]), 4)[0].tolist()
-    [0.0, 0.0, 1.0]
-    """
-    nodes = np.ascontiguousarray(nodes, dtype=np.float64)
-    quads = np.ascontiguousarray(quads)
-    unit = np.empty((len(quads), 3))
-
-    def fill(rows: slice) -> None:
-        _unit_quad_normals(nodes, quads, rows.start, rows.stop, unit)
-
-    map_blocks(fill, thread_blocks(len(quads)))
-    normal = np.zeros((n, 3))
-    _sum_into_nodes(quads, unit, normal)
-    return normal
-
-
 def warm_up() -> int:
     """Compile for the types :func:`core.project` passes."""
     data = np.array([[3.0, 4.0, 7.0], [0.0, 0.0, -2.0], [0.0, 1.0, 5.0]])
@@ -188,83 +157,7 @@ def warm_up() -> int:
 
     out = candidates_near_lines(ColumnIndex(data, 1.0), np.zeros((1, 3)), np.array([[0.0, 0, 1]]), 4, 3.0, 2)
     assert out.tolist() == [[1, 3]], out
-    nodes = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
-    for dtype in (np.int64, np.int32):
-        normal = node_normals(nodes, np.array([[0, 1, 2, 3]], dtype=dtype), 4)
-        assert normal[0].tolist() == [0.0, 0.0, 1.0], normal
     return 1
-
-
-@compiled
-def _unit_quad_normals(nodes, quads, start, stop, unit):
-    """Rows ``start:stop`` of the quads' unit normals, as
-    :func:`core.project.node_normals` makes them: half the cross product of
-    the diagonals (:func:`core.quality.quad_normals`) over its length
-    (:func:`core.vectors.length`, at least 1e-300)."""
-    for m in range(start, stop):
-        a, b, c, d = quads[m, 0], quads[m, 1], quads[m, 2], quads[m, 3]
-        ux, uy, uz = nodes[c, 0] - nodes[a, 0], nodes[c, 1] - nodes[a, 1], nodes[c, 2] - nodes[a, 2]
-        vx, vy, vz = nodes[d, 0] - nodes[b, 0], nodes[d, 1] - nodes[b, 1], nodes[d, 2] - nodes[b, 2]
-        wx, wy, wz = 0.5 * (uy * vz - uz * vy), 0.5 * (uz * vx - ux * vz), 0.5 * (ux * vy - uy * vx)
-        size = maximum(length(wx, wy, wz), 1e-300)
-        unit[m, 0], unit[m, 1], unit[m, 2] = wx / size, wy / size, wz / size
-
-
-@compiled
-def _sum_into_nodes(quads, unit, normal):
-    """Add the quads' ``unit`` normals into their nodes' ``normal`` (zeros),
-    then make each sum a unit vector (zero where it is zero), with numpy's
-    order of operations: per corner column, a sum over the quads in order
-    (a ``bincount``), added to the total; the length as ``np.linalg.norm``.
-
-    The first column's sums go straight into the zeros of ``normal``; the
-    others through a table of zeros, each column's added into ``normal``
-    once complete, and set back to zero. Adding a zero changes no sum (one
-    that starts from +0.0 never becomes -0.0), so a node's sums can be added
-    as often as it has quads: passes over the quads only, none over the
-    model's other nodes. The nodes of no quad keep their zeros (numpy's
-    division leaves +0.0 there too), so only the quads' nodes are made unit
-    vectors, each once: the model has 4.8 M nodes on the 1 km city, a call's
-    quads a third of them or less (0.15 -> 0.08 s for 0.3 M quads)."""
-    _add_column(quads, 0, unit, normal)
-    sums = np.zeros(normal.shape)
-    for k in range(1, 4):
-        _add_column(quads, k, unit, sums)
-        _flush_column(quads, k, sums, normal)
-    done = np.zeros(len(normal), np.bool_)
-    for m in range(len(quads)):
-        for k in range(4):
-            j = quads[m, k]
-            if done[j]:
-                continue
-            done[j] = True
-            x, y, z = normal[j, 0], normal[j, 1], normal[j, 2]
-            size = length(x, y, z)
-            if size > 0:
-                normal[j, 0], normal[j, 1], normal[j, 2] = x / size, y / size, z / size
-            else:
-                normal[j, 0], normal[j, 1], normal[j, 2] = 0.0, 0.0, 0.0
-
-
-@compiled
-def _add_column(quads, k, unit, into):
-    """Add each quad's ``unit`` row into the row of its corner ``k``, in quad order."""
-    for m in range(len(quads)):
-        j = quads[m, k]
-        into[j, 0] += unit[m, 0]
-        into[j, 1] += unit[m, 1]
-        into[j, 2] += unit[m, 2]
-
-
-@compiled
-def _flush_column(quads, k, sums, normal):
-    """Add the ``sums`` of the corners ``k`` into ``normal`` and set them back to zero."""
-    for m in range(len(quads)):
-        j = quads[m, k]
-        normal[j, 0] += sums[j, 0]
-        normal[j, 1] += sums[j, 1]
-        normal[j, 2] += sums[j, 2]
-        sums[j, 0], sums[j, 1], sums[j, 2] = 0.0, 0.0, 0.0
 
 
 @compiled

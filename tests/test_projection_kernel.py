@@ -125,22 +125,3 @@ def test_distances_to_the_line_are_numpys_bit_for_bit(kernel):
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     near = rng.integers(0, 5000, (20_000, 24))
     assert np.array_equal(every(data, near, p, normal), _distance_to_line(data, near, p, normal))
-
-
-@pytest.mark.parametrize("dtype", [np.int64, np.int32])
-def test_node_normals_are_numpys_to_the_last_bit(monkeypatch, kernel, dtype):
-    from core.project import node_normals
-
-    rng = np.random.default_rng(5)
-    nodes = rng.normal(scale=0.2, size=(30_000, 3)) + rng.integers(0, 40, size=(30_000, 3))
-    nodes[50:100] = nodes[:50]
-    quads = rng.integers(0, 25_000, size=(80_000, 4)).astype(dtype)  # the last nodes on no quad
-    # Equal diagonals (i -> j and i + 50 -> j + 50): quads with a zero normal.
-    i, j = rng.integers(0, 50, size=(2, 30))
-    quads[:30] = np.column_stack([i, i + 50, j, j + 50])
-    with monkeypatch.context() as patch:
-        patch.setenv("URBANVOX_JIT", "0")
-        expected = node_normals(nodes, quads, len(nodes))
-    got = kernel.node_normals(nodes, quads, len(nodes))
-    assert got.shape == expected.shape and got.tobytes() == expected.tobytes()  # signs of zeros too
-    assert not got[25_000:].any() and np.allclose(np.linalg.norm(got[100:25_000], axis=1), 1.0)
