@@ -59,22 +59,30 @@ def step_into(target: np.ndarray, positions: np.ndarray, nodes: np.ndarray, whic
     """
     positions = np.ascontiguousarray(positions, dtype=np.float64)
     size = len(nodes)
-    face_sum = _summed(positions, nodes, face_corners, 4, 0.25, size)
-    edge_sum = _summed(positions, nodes, edge_ends, 2, 0.5, size)
+    faces = (face_corners, 4, 0.25, _centres_of(positions, nodes, face_corners, 4, 0.25))
+    edges = (edge_ends, 2, 0.5, _centres_of(positions, nodes, edge_ends, 2, 0.5))
+    # A node's sum runs in face (edge) order, one pass each: the two share
+    # nothing, so each runs on a thread of its own (the 1 km city's three
+    # passes: 0.26 s of these sums, on one core one after the other).
+    face_sum, edge_sum = map_blocks(lambda table: _summed(*table, size), (faces, edges))
     map_blocks(lambda rows: _combine(target, positions, nodes, which, face_sum, edge_sum, face_weight,
                                      edge_weight, own_weight, rows.start, rows.stop),
                thread_blocks(size))
     return target
 
 
-def _summed(positions: np.ndarray, nodes: np.ndarray, corners: np.ndarray, per: int, weight: float,
-            size: int) -> np.ndarray:
-    """Each surface node's sum of the centres of its faces (or edges): the
-    centres on all cores, the sums in one pass in face order."""
+def _centres_of(positions: np.ndarray, nodes: np.ndarray, corners: np.ndarray, per: int,
+                weight: float) -> np.ndarray:
+    """The weighted centres of the faces (or edges) ``corners``, on all cores."""
     count = len(corners) // per
     centre = np.empty((count, 3))
     map_blocks(lambda rows: _centres(positions, nodes, corners, per, weight, rows.start, rows.stop, centre),
                thread_blocks(count))
+    return centre
+
+
+def _summed(corners: np.ndarray, per: int, weight: float, centre: np.ndarray, size: int) -> np.ndarray:
+    """Each surface node's sum of the ``centre`` of its faces (or edges), in one pass in face order."""
     total = np.zeros((size, 3))
     _sum_centres(corners, per, weight, centre, total)
     return total
