@@ -4,11 +4,11 @@ from __future__ import annotations
 
 #: The stages, in the order of the tables.
 STAGES = ["read", "sample", "grid", "ground", "classify", "blocks", "eliminate", "surface", "smooth",
-          "project", "measure", "export", "layers", "export_msh", "export_msh_binary"]
+          "project", "measure", "layers", "export", "export_msh", "export_msh_binary"]
 #: The issue's names for the pipeline's laps.
 STAGE_NAMES = {"ground": "ground+voxelise", "eliminate": "elimination", "surface": "surfaces",
                "smooth": "smoothing", "project": "projection", "export_msh": "gmsh .msh",
-               "layers": "layers' WKB", "export_msh_binary": "binary .msh"}
+               "layers": "layers", "export_msh_binary": "binary .msh"}
 #: What a stage's rate counts.
 RATE_UNIT = {"read": "read", "sample": "points", "grid": "points", "ground": "points",
              "classify": "voxels", "blocks": "voxels", "eliminate": "voxels", "surface": "voxels",
