@@ -155,12 +155,7 @@ def _sum_into_nodes(quads, unit, normal):
             if done[j]:
                 continue
             done[j] = True
-            x, y, z = normal[j, 0], normal[j, 1], normal[j, 2]
-            size = length(x, y, z)
-            if size > 0:
-                normal[j, 0], normal[j, 1], normal[j, 2] = x / size, y / size, z / size
-            else:
-                normal[j, 0], normal[j, 1], normal[j, 2] = 0.0, 0.0, 0.0
+            _set_unit(normal, j, normal[j, 0], normal[j, 1], normal[j, 2])
 
 
 @compiled
@@ -218,35 +213,24 @@ def _outward_columns(quads, regions, unit, block, ground, ground_region, first, 
     for m in first:
         a, b = regions[m, 0], regions[m, 1]
         for k in columns:
-            if a > 0:
-                j = quads[m, k]
-                if block[j]:
-                    w = slot[j]
-                    sums[k, w, 0] += unit[m, 0]
-                    sums[k, w, 1] += unit[m, 1]
-                    sums[k, w, 2] += unit[m, 2]
-            if a == ground_region:
-                j = quads[m, k]
-                if ground[j]:
-                    w = slot[j]
-                    sums[k, w, 0] += unit[m, 0]
-                    sums[k, w, 1] += unit[m, 1]
-                    sums[k, w, 2] += unit[m, 2]
-            elif b == ground_region:
-                j = quads[m, 3 - k]
-                if ground[j]:
-                    w = slot[j]
-                    sums[k, w, 0] += -unit[m, 0]
-                    sums[k, w, 1] += -unit[m, 1]
-                    sums[k, w, 2] += -unit[m, 2]
+            if a > 0 and block[quads[m, k]]:
+                _add_unit(sums, k, slot[quads[m, k]], unit, m, 1.0)
+            if a == ground_region and ground[quads[m, k]]:
+                _add_unit(sums, k, slot[quads[m, k]], unit, m, 1.0)
+            elif b == ground_region and ground[quads[m, 3 - k]]:
+                _add_unit(sums, k, slot[quads[m, 3 - k]], unit, m, -1.0)
     for m in second:
         for k in columns:
-            j = quads[m, 3 - k]
-            if block[j]:
-                w = slot[j]
-                sums[k, w, 0] += -unit[m, 0]
-                sums[k, w, 1] += -unit[m, 1]
-                sums[k, w, 2] += -unit[m, 2]
+            if block[quads[m, 3 - k]]:
+                _add_unit(sums, k, slot[quads[m, 3 - k]], unit, m, -1.0)
+
+
+@compiled
+def _add_unit(sums, k, w, unit, m, sign):
+    """Add quad ``m``'s ``unit`` normal, times ``sign`` (1 or -1: exact), into row ``w`` of ``sums[k]``."""
+    sums[k, w, 0] += sign * unit[m, 0]
+    sums[k, w, 1] += sign * unit[m, 1]
+    sums[k, w, 2] += sign * unit[m, 2]
 
 
 @compiled
@@ -257,9 +241,15 @@ def _outward_total(sums, wanted, normal):
         x = ((sums[0, w, 0] + sums[1, w, 0]) + sums[2, w, 0]) + sums[3, w, 0]
         y = ((sums[0, w, 1] + sums[1, w, 1]) + sums[2, w, 1]) + sums[3, w, 1]
         z = ((sums[0, w, 2] + sums[1, w, 2]) + sums[2, w, 2]) + sums[3, w, 2]
-        size = length(x, y, z)
-        j = wanted[w]
-        if size > 0:
-            normal[j, 0], normal[j, 1], normal[j, 2] = x / size, y / size, z / size
-        else:
-            normal[j, 0], normal[j, 1], normal[j, 2] = 0.0, 0.0, 0.0
+        _set_unit(normal, wanted[w], x, y, z)
+
+
+@compiled
+def _set_unit(normal, j, x, y, z):
+    """Row ``j`` of ``normal``: (x, y, z) over its length, zeros where that
+    is zero (numpy's division where the length is positive, on zeros)."""
+    size = length(x, y, z)
+    if size > 0:
+        normal[j, 0], normal[j, 1], normal[j, 2] = x / size, y / size, z / size
+    else:
+        normal[j, 0], normal[j, 1], normal[j, 2] = 0.0, 0.0, 0.0
