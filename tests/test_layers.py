@@ -26,7 +26,7 @@ def fresh(result):
 
 def triangles_of(wkb, offset):
     """The triangles of a MultiPolygonZ as node ids (coordinates numbered) and
-    their corners in local coordinates."""
+    their corners, less ``offset``."""
     parts = shapely.get_parts(shapely.from_wkb(wkb))
     rings = np.stack([shapely.get_coordinates(shapely.get_exterior_ring(p), include_z=True) for p in parts])
     assert rings.shape[1:] == (4, 3) and np.array_equal(rings[:, 0], rings[:, 3])  # closed triangles

@@ -30,9 +30,9 @@ def test_node_normals_are_numpys_to_the_last_bit(monkeypatch, kernel, dtype):
 
 @pytest.mark.parametrize("dtype", [np.int64, np.int32])
 def test_outward_normals_are_numpys_to_the_last_bit(monkeypatch, kernel, dtype):
-    """Blocks on the ground, one on another's roof and one on the ground
-    only by a corner, in a box: each selected node's normal out of its block,
-    else out of the ground, as numpy's sums on the gathered faces."""
+    """Blocks on the ground, one on another's roof, one touching another by
+    an edge, a pit in the ground, in a box: each selected node's normal out of
+    its block, else out of the ground, as numpy's sums on the gathered faces."""
     from core.grid import VoxelGrid
     from core.project import outward_normals
     from core.smooth import NodeRoles
