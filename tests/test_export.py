@@ -75,6 +75,10 @@ def test_vtu_and_ply_carry_the_regions(result, tmp_path):
     ply = trimesh.load(result.write_mesh(tmp_path / "city.ply"), process=False)
     region = np.asarray(ply.metadata["_ply_raw"]["face"]["data"]["region"]).ravel()
     assert set(np.unique(region)) == set(result.blocks.block_id) | {-1, -2}
+    # Every node as it is, every face of every region's closed surface (written in blocks of rows).
+    faces, labels = result.mesh_triangles.closed_surfaces(sorted(set(region.tolist()), key=lambda r: (r < 0, abs(r))))
+    assert len(faces) > 65536 and np.array_equal(ply.faces, faces) and np.array_equal(region, labels)
+    assert np.array_equal(ply.vertices, result.grid.to_world(result.mesh.nodes))
     assert check_surface(np.asarray(ply.faces)[region == -2]).ok  # the air, closed
 
 
