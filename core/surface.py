@@ -175,7 +175,7 @@ class SurfaceModel:
         # region meets its faces in face order (a face has two different
         # regions), so a stable sort on the rank alone gives, per region, the
         # faces of closed_surface in its order. Small ranks sort by radix.
-        side_region = self.regions.ravel().astype(np.int64)
+        side_region = self.regions.ravel()
         rank = rank_in(side_region, wanted)
         # The same rows in two passes over the sides (core.surface_kernel).
         found = jit.run("surface_kernel", "sides_by_rank", self.quads, self.regions, rank, len(wanted), size=len(rank))
@@ -234,7 +234,13 @@ def rank_in(values: np.ndarray, wanted: Sequence[int]) -> np.ndarray:
         # per value, not a binary search.
         table = np.full(high - low + 3, -1, dtype=np.int64)
         table[wanted - low + 1] = np.arange(len(wanted))
-        return table.take(np.clip(values.astype(np.int64) - (low - 1), 0, high - low + 2))
+        # The lookups' indices in one table, shifted and clipped in place, not
+        # in three more of the values' size (155 MB each for the 19.4 M sides
+        # of the 1 km city's triangles: a PLY's page faults 803 -> 747 MB).
+        index = values.astype(np.int64)
+        index -= low - 1
+        np.clip(index, 0, high - low + 2, out=index)
+        return table.take(index)
     if (wanted[1:] > wanted[:-1]).all():  # already sorted (the projection's planes): no sort
         order, ordered = np.arange(len(wanted)), wanted
     else:
