@@ -151,17 +151,11 @@ class Reconstruction:
         its 4.9 M quads, each on its own thread, where the whole model's
         triangles took 0.6-0.9 s and were then held as long as the result.
         """
-        mesh = self.mesh
-        if mesh.nodes is self.surface.nodes:
-            return SurfaceModel(nodes=mesh.nodes, quads=mesh.quads.compress(keep, axis=0),
-                                regions=mesh.regions.compress(keep, axis=0))
-        made = self._triangles
-        if made is not None:
-            pairs = np.repeat(keep, 2)  # triangles 2 f and 2 f + 1 split face f
-            return SurfaceModel(nodes=made.nodes, quads=made.quads.compress(pairs, axis=0),
-                                regions=made.regions.compress(pairs, axis=0))
-        return SurfaceModel(nodes=mesh.nodes, quads=mesh.quads.compress(keep, axis=0),
-                            regions=mesh.regions.compress(keep, axis=0)).triangulated()
+        if self.mesh.nodes is self.surface.nodes:
+            return self.mesh.selected(keep)
+        if self._triangles is not None:
+            return self._triangles.selected(np.repeat(keep, 2))  # triangles 2 f and 2 f + 1 split face f
+        return self.mesh.selected(keep).triangulated()
 
     @property
     def mesh_triangles(self) -> SurfaceModel:

@@ -125,6 +125,20 @@ class SurfaceModel:
         triangles, _ = best_split(self.nodes, self.quads)
         return SurfaceModel(nodes=self.nodes, quads=triangles, regions=np.repeat(self.regions, 2, axis=0))
 
+    def selected(self, keep: np.ndarray) -> "SurfaceModel":
+        """The faces ``keep`` (a mask over the faces), in their order, on the same nodes.
+
+        Examples
+        --------
+        >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (1, 1, 3))
+        >>> s = SurfaceModel.from_regions(g, np.array([GROUND_REGION, 1, AIR_REGION], np.int32).reshape(1, 1, 3))
+        >>> block = s.selected((s.regions == 1).any(axis=1))
+        >>> len(block.quads), block.nodes is s.nodes, bool((block.regions == 1).any(axis=1).all())
+        (6, True, True)
+        """
+        return SurfaceModel(nodes=self.nodes, quads=self.quads.compress(keep, axis=0),
+                            regions=self.regions.compress(keep, axis=0))
+
     def region_ids(self) -> np.ndarray:
         """Every region that has a face (blocks, ground, air, outside)."""
         return dense_unique(self.regions)
