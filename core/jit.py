@@ -15,7 +15,7 @@ the smoothing's Catmull-Clark step (:mod:`core.smooth_kernel`), the
 elimination's support test (:mod:`core.support_kernel`), the faces between
 regions (:mod:`core.surface_kernel`), the selections
 of moved nodes and the faces around them (:mod:`core.topology_kernel`) and
-the connected parts of the gmsh export (:mod:`core.export_kernel`),
+the entities of the gmsh export (:mod:`core.export_kernel`),
 the per-block sums of the measures (:mod:`core.measure_kernel`), the
 faces each tile owns and the numbering and copying of the tiles' nodes
 and faces into one model (:mod:`core.tiles_kernel`), the

@@ -235,9 +235,15 @@ def two(district):
                               ReconstructionParams(voxel_size=4.0), airborne=True)
 
 
-def test_gmsh_entities_match_a_search_per_interface_and_region(two, tmp_path):
+@pytest.mark.parametrize("switch", ["0", "always"])
+def test_gmsh_entities_match_a_search_per_interface_and_region(two, tmp_path, switch, monkeypatch, compiled):
+    """The numpy search (a graph of faces and nodes) and the compiled one
+    (core.export_kernel) find the entities of a search per interface and region."""
     from core.export import _regions
 
+    monkeypatch.setenv("URBANVOX_JIT", switch)
+    if switch == "always":
+        compiled("export_kernel")
     surfaces, volumes = _msh_entities(two.write_mesh(tmp_path / "two.msh"), _regions(two.mesh))
     expected_surfaces, expected_volumes = _reference_entities(two.mesh)
     assert surfaces == expected_surfaces

@@ -1,9 +1,8 @@
-"""The compiled connected parts of the gmsh export (core.export_kernel)
-against scipy's labelling (core.export): the same parts, numbered alike."""
+"""The compiled entity search of the gmsh export (core.export_kernel) against
+its numpy twin (core.export._msh_entities): the same patches, shells, order
+and boxes, numbered alike."""
 import numpy as np
 import pytest
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from core import export
 
@@ -13,31 +12,42 @@ def kernel(compiled):
     return compiled("export_kernel")
 
 
-@pytest.mark.parametrize("seed", range(8))
-def test_parts_are_scipys(kernel, seed):
-    """Random links between items and vertices, sparse (many parts, vertices
-    on no link) to dense (one part)."""
+def _random_faces(seed):
+    """Faces on a few hundred nodes in a few interfaces (many small patches,
+    nodes shared across interfaces), regions partly not written (-1), and
+    coordinates with zeros of both signs."""
     rng = np.random.default_rng(seed)
-    n_items, n_vertices = int(rng.integers(1, 3000)), int(rng.integers(1, 3000))
-    links = int(rng.integers(0, 3 * (n_items + n_vertices)))
-    item = rng.integers(0, n_items, links)
-    vertex = (n_items + rng.integers(0, n_vertices, links)).astype(np.int32 if seed % 2 else np.int64)
-    size = n_items + n_vertices
-    graph = coo_matrix((np.ones(links), (item, vertex)), shape=(size, size)).tocsr()
-    expected = connected_components(graph, directed=False)[1]
-    got = kernel.link_parts(item, vertex, size)
-    assert got.dtype == expected.dtype and np.array_equal(got, expected)
+    n_nodes, n_faces, n_interfaces = int(rng.integers(5, 400)), int(rng.integers(1, 3000)), int(rng.integers(1, 9))
+    faces = rng.integers(0, n_nodes, (n_faces, int(rng.choice([3, 4]))))
+    which = rng.integers(0, n_interfaces, n_faces)
+    side_rank = rng.integers(-1, 5, (n_interfaces, 2))
+    world = np.where(rng.random((n_nodes, 3)) < 0.5, rng.choice([-1.5, -0.0, 0.0, 2.25, 7.0], (n_nodes, 3)),
+                     rng.random((n_nodes, 3)))
+    return faces, which, side_rank, world
 
 
-def test_linked_parts_of_faces_are_numpys(with_numpy, kernel):
-    """Triangles of a shaken lattice in a few groups: the parts, pairs and
-    pairs' parts the export's numpy code finds."""
-    rng = np.random.default_rng(2)
-    tri = rng.integers(0, 4000, (6000, 3))
-    group = np.repeat(rng.integers(0, 5, len(tri)), 3)
-    item = np.repeat(np.arange(len(tri)), 3)
-    expected = with_numpy(export._linked_parts, item, group, tri.ravel(), len(tri), 4000)
-    got = export._linked_parts(item, group, tri.ravel(), len(tri), 4000)
-    assert len(np.unique(expected[0])) > 1
-    for a, b in zip(got, expected):
-        assert np.array_equal(a, b)
+@pytest.mark.parametrize("seed", range(12))
+def test_entities_are_numpys(kernel, seed):
+    args = _random_faces(seed)
+    expected = export._msh_entities(*args)
+    got = kernel.msh_entities(*args)
+    assert len(got) == len(expected) == 7
+    assert len(expected[0]) > 1 or seed  # patches to number (the first seed has several)
+    for name, a, b in zip(("first_face", "order", "bounds", "items", "shell", "lower", "upper"), got, expected):
+        assert a.dtype == b.dtype and np.array_equal(a, b), name
+        if a.dtype.kind == "f":
+            assert not np.signbit(a[a == 0]).any(), name  # zeros made positive in both
+
+
+def test_entities_of_separate_squares(kernel):
+    """Two squares of interface 0 sharing an edge, one of interface 1 beside
+    them: two patches, and the sides of region 0 (rank 0) one shell, of
+    region 1 another; boxes of their nodes."""
+    faces = np.array([[0, 1, 4, 3], [1, 2, 5, 4], [2, 6, 7, 5]])
+    world = np.arange(24.0).reshape(8, 3)
+    for found in (kernel.msh_entities(faces, np.array([0, 0, 1]), np.array([[0, 1], [0, 1]]), world),
+                  export._msh_entities(faces, np.array([0, 0, 1]), np.array([[0, 1], [0, 1]]), world)):
+        first_face, order, bounds, items, shell, lower, upper = found
+        assert first_face.tolist() == [0, 2] and order.tolist() == [0, 1, 2] and bounds.tolist() == [0, 2, 3]
+        assert items.tolist() == [0, 1, 2, 3] and shell.tolist() == [0, 0, 1, 1]
+        assert lower.tolist() == [[0, 1, 2], [6, 7, 8]] and upper.tolist() == [[15, 16, 17], [21, 22, 23]]
