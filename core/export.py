@@ -38,7 +38,8 @@ import numpy as np
 from . import jit
 from .errors import UrbanvoxError
 from .heap import reusing_freed_memory
-from .row_text import encoded_rows
+from .parallel import map_ahead
+from .row_text import encoded_block, encoded_rows
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel, rank_in, unique_pairs
 
 MESH_FORMATS = (".obj", ".stl", ".ply", ".vtu", ".msh")
@@ -225,7 +226,10 @@ def _msh_topology(model: SurfaceModel, world: np.ndarray, triangles: SurfaceMode
     and two thirds of the links (the 1 km city: at most 2.0 GB of tables
     on the triangles, 1.45 GB on the quads).
     """
-    interfaces, which = unique_pairs(np.sort(model.regions, axis=1))  # faces go from the lower region id
+    # Faces go from the lower region id. Two columns' minimum and maximum,
+    # not a sort of every row (0.13-0.2 s on the 1 km city's 4.9 M quads).
+    behind, front = model.regions[:, 0], model.regions[:, 1]
+    interfaces, which = unique_pairs(np.column_stack([np.minimum(behind, front), np.maximum(behind, front)]))
     regions = _regions(model)
     ids = np.asarray(regions, dtype=np.int64)
     side_rank = rank_in(interfaces, ids)
@@ -391,10 +395,21 @@ def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> N
         out.write(b"$EndNodes\n$Elements\n")
         out.write(f"{n_patches} {n_faces} 1 {n_faces}\n".encode("ascii"))
         row_format = " ".join(["%d"] * (t.faces.shape[1] + 1))
-        for p in range(n_patches):
-            members = t.face_order[t.patch_start[p]:t.patch_start[p + 1]]
-            out.write(f"2 {p + 1} 2 {len(members)}\n".encode("ascii"))
-            _write_rows(out, row_format, np.column_stack([members + 1, t.faces.take(members, axis=0) + 1]))
+
+        def elements(part: tuple[int, slice]) -> tuple[bytes, bytes]:
+            """A block of a patch's elements' text, after the patch's head if it is its first."""
+            p, rows = part
+            members = t.face_order[rows]
+            head = f"2 {p + 1} 2 {t.patch_start[p + 1] - t.patch_start[p]}\n" if rows.start == t.patch_start[p] else ""
+            return head.encode("ascii"), encoded_block(row_format, np.column_stack(
+                [members + 1, t.faces.take(members, axis=0) + 1]), n_faces)
+
+        # Every patch's blocks in one stream, on the threads ahead of the writing (core.parallel).
+        parts = [(p, slice(start, min(start + _ROWS, t.patch_start[p + 1])))
+                 for p in range(n_patches) for start in range(t.patch_start[p], t.patch_start[p + 1], _ROWS)]
+        for head, text in map_ahead(elements, parts):
+            out.write(head)
+            out.write(text)
         out.write(b"$EndElements\n")
 
 

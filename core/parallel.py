@@ -20,8 +20,10 @@ from __future__ import annotations
 
 import os
 import threading
+from collections import deque
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Callable, Iterable, Sequence, TypeVar
+from itertools import islice
+from typing import Callable, Iterable, Iterator, Sequence, TypeVar
 
 import numpy as np
 
@@ -31,6 +33,7 @@ R = TypeVar("R")
 _pools: dict[int, ThreadPoolExecutor] = {}  # by number of threads
 _background: ThreadPoolExecutor | None = None
 _lock = threading.Lock()
+_DONE = object()
 
 
 def thread_count() -> int:
@@ -56,6 +59,34 @@ def map_blocks(func: Callable[[T], R], blocks: Iterable[T]) -> list[R]:
     if not on_pool(blocks):
         return [func(block) for block in blocks]
     return list(_executor(thread_count()).map(func, blocks))
+
+
+def map_ahead(func: Callable[[T], R], blocks: Iterable[T]) -> Iterator[R]:
+    """``func(block)`` of each block in order, as they are taken: the
+    threads work on the next blocks while the caller uses one (writes it
+    to a file), up to two per thread ahead of it. A file written a batch of
+    blocks at a time, made then written, kept one core idle while it wrote
+    (the 1 km city's 510 MB gmsh text: 1.0 s of writing after 1.5 s of
+    text).
+
+    Examples
+    --------
+    >>> list(map_ahead(lambda n: n * n, range(5)))
+    [0, 1, 4, 9, 16]
+    """
+    blocks = list(blocks)
+    if not on_pool(blocks):
+        yield from (func(block) for block in blocks)
+        return
+    pool = _executor(thread_count())
+    waiting = iter(blocks)
+    running = deque(pool.submit(func, block) for block in islice(waiting, 2 * thread_count()))
+    while running:
+        result = running.popleft().result()
+        following = next(waiting, _DONE)
+        if following is not _DONE:
+            running.append(pool.submit(func, following))
+        yield result
 
 
 def in_background(func: Callable[..., R], *args) -> Future:

@@ -5,7 +5,9 @@ The text mesh formats (gmsh ``.msh`` 4.1 ASCII, OBJ) are millions of lines of
 its own (3 s for the 4.5 M nodes of the 1 km synthetic city, 3.5 s for its
 9.7 M triangles); here a column's digits are made four at a time for a
 block of rows with numpy, laid out in a table of characters and read off
-row by row, and the blocks run on all cores.
+row by row, and the blocks run on all cores. Where numba runs
+(:mod:`core.jit`), :mod:`core.row_text_kernel` writes each row's characters
+in one pass instead, with the same arithmetic.
 
 The text is exactly the operator's. ``%d`` of an integer is its digits.
 ``%.Nf`` is the decimal nearest to the double's exact value, ties to even.
@@ -23,7 +25,8 @@ from typing import Iterator
 
 import numpy as np
 
-from .parallel import map_blocks, row_blocks, thread_count
+from . import jit
+from .parallel import map_ahead, row_blocks
 
 #: The fields the numpy path writes; any other conversion goes to the operator.
 _FIELD = re.compile(r"%(?:d|\.(\d+)f)")
@@ -64,9 +67,18 @@ def encoded_rows(row_format: str, rows: np.ndarray) -> Iterator[bytes]:
         for block in blocks:
             yield (line * (block.stop - block.start) % tuple(rows[block].ravel().tolist())).encode("ascii")
         return
-    # Each row's text from its own row: a block per thread at a time (core.parallel).
-    for batch in row_blocks(len(blocks), thread_count()):
-        yield from map_blocks(lambda block: _block_text(row_format, layout, rows[block]), blocks[batch])
+    # Each row's text from its own row, the blocks on the threads ahead of the caller (core.parallel).
+    yield from map_ahead(lambda block: _block_text(row_format, layout, rows[block], len(rows)), blocks)
+
+
+def encoded_block(row_format: str, rows: np.ndarray, size: int | None = None) -> bytes:
+    """The text of :func:`format_rows` as ASCII bytes, made on this thread:
+    for a caller that runs blocks of rows on threads itself (a block of
+    ``size`` rows in all, to choose the compiled code, :mod:`core.jit`)."""
+    layout = _layout(row_format, rows)
+    if layout is None:
+        return ((row_format + "\n") * len(rows) % tuple(rows.ravel().tolist())).encode("ascii")
+    return _block_text(row_format, layout, rows, size)
 
 
 def _layout(row_format: str, rows: np.ndarray) -> tuple[list[bytes], list[int | None]] | None:
@@ -88,10 +100,14 @@ def _layout(row_format: str, rows: np.ndarray) -> tuple[list[bytes], list[int | 
     return (literals, decimals) if fits else None
 
 
-def _block_text(row_format: str, layout: tuple[list[bytes], list[int | None]], rows: np.ndarray) -> bytes:
-    """The text of a block of rows; rows the numpy path cannot vouch for
-    are formatted by the operator, in their place."""
+def _block_text(row_format: str, layout: tuple[list[bytes], list[int | None]], rows: np.ndarray,
+                size: int | None = None) -> bytes:
+    """The text of a block of rows (of ``size`` rows in all); rows the numpy
+    path cannot vouch for are formatted by the operator, in their place."""
     literals, decimals = layout
+    text = jit.run("row_text_kernel", "block_text", row_format, literals, decimals, rows, size=size)
+    if text is not None:  # the compiled twin's (core.row_text_kernel): the same bytes
+        return text
     fields, exact = [], np.ones(len(rows), dtype=bool)
     for column, places in enumerate(decimals):
         value = rows[:, column]

@@ -84,3 +84,33 @@ def test_a_pool_in_hand_still_runs_after_another_count_is_asked(monkeypatch):
     monkeypatch.setenv("URBANVOX_THREADS", "3")
     assert np.concatenate(map_blocks(lambda rows: np.arange(rows.start, rows.stop), row_blocks(10, 4))).sum() == 45
     assert list(held.map(abs, [-1, -2, -3])) == [1, 2, 3]
+
+
+def test_blocks_ahead_come_in_order_while_the_caller_works(monkeypatch):
+    """map_ahead: the results in the blocks' order, at most two blocks per
+    thread made ahead of the one taken, and a failing block raises in the caller."""
+    import threading
+
+    from core.parallel import map_ahead
+
+    started, taken = [], []
+    lock = threading.Lock()
+
+    def square(n):
+        with lock:
+            started.append(n)
+        return n * n
+
+    for threads in ("1", "3"):
+        monkeypatch.setenv("URBANVOX_THREADS", threads)
+        started.clear()
+        taken.clear()
+        for n, result in zip(range(40), map_ahead(square, range(40))):
+            assert result == n * n
+            with lock:
+                assert len(started) <= n + 1 + 2 * int(threads) * (threads != "1")
+            taken.append(n)
+        assert taken == list(range(40)) and sorted(started) == list(range(40))
+    monkeypatch.setenv("URBANVOX_THREADS", "2")
+    with pytest.raises(ZeroDivisionError):
+        list(map_ahead(lambda n: 1 / (n - 5), range(10)))
