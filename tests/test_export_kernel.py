@@ -26,8 +26,11 @@ def _random_faces(seed):
     return faces, which, side_rank, world
 
 
+@pytest.mark.parametrize("threads", ["1", "3"])
 @pytest.mark.parametrize("seed", range(12))
-def test_entities_are_numpys(kernel, seed):
+def test_entities_are_numpys(kernel, seed, threads, monkeypatch):
+    """Joined on one thread, or in runs of whole groups on three."""
+    monkeypatch.setenv("URBANVOX_THREADS", threads)
     args = _random_faces(seed)
     expected = export._msh_entities(*args)
     got = kernel.msh_entities(*args)
@@ -51,3 +54,17 @@ def test_entities_of_separate_squares(kernel):
         assert first_face.tolist() == [0, 2] and order.tolist() == [0, 1, 2] and bounds.tolist() == [0, 2, 3]
         assert items.tolist() == [0, 1, 2, 3] and shell.tolist() == [0, 0, 1, 1]
         assert lower.tolist() == [[0, 1, 2], [6, 7, 8]] and upper.tolist() == [[15, 16, 17], [21, 22, 23]]
+
+
+def test_runs_of_whole_groups(kernel):
+    """Items in groups of 5, 1, 1 and 3 faces: runs end where groups end,
+    about equal in faces."""
+    from core.export_kernel import _group_runs
+
+    item_set = np.arange(10)
+    start = np.arange(11)
+    group = np.array([0, 0, 0, 0, 0, 1, 2, 3, 3, 3])
+    assert _group_runs(start, item_set, group, 1) == [slice(0, 10)]
+    assert _group_runs(start, item_set, group, 2) == [slice(0, 5), slice(5, 10)]
+    assert _group_runs(start, item_set, group, 3) == [slice(0, 5), slice(5, 6), slice(6, 10)]
+    assert _group_runs(start, item_set, np.zeros(10, dtype=np.int64), 4) == [slice(0, 10)]
