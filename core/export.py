@@ -405,9 +405,7 @@ def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> N
                 [members + 1, t.faces.take(members, axis=0) + 1]), n_faces)
 
         # Every patch's blocks in one stream, on the threads ahead of the writing (core.parallel).
-        parts = [(p, slice(start, min(start + _ROWS, t.patch_start[p + 1])))
-                 for p in range(n_patches) for start in range(t.patch_start[p], t.patch_start[p + 1], _ROWS)]
-        for head, text in map_ahead(elements, parts):
+        for head, text in map_ahead(elements, _patch_blocks(t)):
             out.write(head)
             out.write(text)
         out.write(b"$EndElements\n")
@@ -445,20 +443,32 @@ def _write_msh_binary(path: Path, topology: _MshTopology, world: np.ndarray) -> 
         out.write(np.ascontiguousarray(world, dtype="<f8").tobytes())
         out.write(b"\n$EndNodes\n$Elements\n")
         out.write(np.array([n_patches, n_faces, 1, n_faces], size_t).tobytes())
-        # Rows (tag, node, node, node) of the faces in patch order, made and
-        # written _ROWS at a time: a table of them all took 310 MB on the
-        # 1 km city.
-        rows = np.empty((_ROWS, t.faces.shape[1] + 1), dtype=size_t)
-        for p in range(n_patches):
+
+        def elements(part: tuple[int, slice]) -> tuple[bytes, np.ndarray]:
+            """Rows (tag, node, node, node) of a block of a patch's faces, after the patch's head if it is its first."""
+            p, rows = part
             start, stop = t.patch_start[p], t.patch_start[p + 1]
-            out.write(np.array([2, p + 1, 2], "<i4").tobytes() + np.array(stop - start, size_t).tobytes())
-            for part in range(start, stop, _ROWS):
-                members = t.face_order[part:min(part + _ROWS, stop)]
-                block = rows[:len(members)]
-                block[:, 0] = members + 1
-                block[:, 1:] = t.faces.take(members, axis=0) + 1
-                out.write(block.data)
+            head = np.array([2, p + 1, 2], "<i4").tobytes() + np.array(stop - start, size_t).tobytes() \
+                if rows.start == start else b""
+            members = t.face_order[rows]
+            block = np.empty((len(members), t.faces.shape[1] + 1), dtype=size_t)
+            block[:, 0] = members + 1
+            block[:, 1:] = t.faces.take(members, axis=0) + 1
+            return head, block
+
+        # _ROWS at a time, on the threads ahead of the writing (a table of
+        # them all took 310 MB on the 1 km city).
+        for head, block in map_ahead(elements, _patch_blocks(t)):
+            out.write(head)
+            out.write(block.data)
         out.write(b"\n$EndElements\n")
+
+
+def _patch_blocks(topology: _MshTopology) -> list[tuple[int, slice]]:
+    """Every patch's faces (rows of ``face_order``) in blocks of at most ``_ROWS``, patch by patch."""
+    start = topology.patch_start.tolist()
+    return [(p, slice(first, min(first + _ROWS, start[p + 1])))
+            for p in range(len(start) - 1) for first in range(start[p], start[p + 1], _ROWS)]
 
 
 def _box(box: np.ndarray) -> str:

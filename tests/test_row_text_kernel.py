@@ -25,7 +25,8 @@ def test_fixed_point_text_is_the_operators(kernel, places):
     rows = np.column_stack([values, values[::-1]])
     row_format = f"v %.{places}f,%.{places}f;"
     for start in range(0, 4000, 40):
-        assert _text(kernel, row_format, rows[start:start + 40]) == by_operator(row_format, rows[start:start + 40]).encode()
+        block = rows[start:start + 40]
+        assert _text(kernel, row_format, block) == by_operator(row_format, block).encode("ascii")
     assert _text(kernel, row_format, rows) == by_operator(row_format, rows).encode("ascii")
 
 
