@@ -39,9 +39,29 @@ class BlockMeasures(BlockRows):
     max_dist: np.ndarray
 
 
+def block_face_split(model: SurfaceModel, nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The best split (:func:`core.quality.best_diagonal_quality`) of every
+    face between a block and another region, in the model's order, at
+    ``nodes``: whether along its diagonal 1-3, and its quality.
+
+    Examples
+    --------
+    >>> from core.grid import VoxelGrid
+    >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 2.0, (1, 1, 3))
+    >>> s = SurfaceModel.from_regions(g, np.array([-1, 1, -2], np.int32).reshape(1, 1, 3))
+    >>> diagonal, quality = block_face_split(s, s.nodes)
+    >>> len(diagonal), round(float(quality.min()), 4)
+    (6, 0.7174)
+    """
+    a, b = model.regions[:, 0], model.regions[:, 1]
+    # take and compress: row gathers faster than indexing (core.vectors).
+    return best_diagonal_quality(nodes, model.quads.compress((a > 0) | (b > 0), axis=0))
+
+
 def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
                    node_distance: np.ndarray | None = None,
-                   facade_tilt: float = 30.0) -> BlockMeasures:
+                   facade_tilt: float = 30.0,
+                   split: tuple[np.ndarray, np.ndarray] | None = None) -> BlockMeasures:
     """Volume, areas, face quality and node-to-data distance of every block.
 
     Parameters
@@ -55,6 +75,8 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
         Distance of every node to the data; NaN measures when omitted.
     facade_tilt : float
         Largest angle (degrees) between a facade normal and the horizontal.
+    split : tuple of ndarray, optional
+        :func:`block_face_split` of ``model`` at ``nodes``, when the caller has it.
 
     Examples
     --------
@@ -77,7 +99,7 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     block = np.flatnonzero((a > 0) | (b > 0))
     # take and compress: row gathers faster than indexing (core.vectors).
     block_quads = model.quads.take(block, axis=0)
-    diagonal, split_quality = best_diagonal_quality(nodes, block_quads)
+    diagonal, split_quality = split if split is not None else best_diagonal_quality(nodes, block_quads)
     outward = a[block] > 0
     quality = np.concatenate([split_quality[outward], quad_quality(nodes, quads[outward.sum():])])
     limit = np.sin(np.radians(facade_tilt))

@@ -44,7 +44,7 @@ from .grid import GridWindow, check_face_memory, check_memory
 from .ground import GroundLevel, NearGround, column_ground_level
 from .heap import reusing_freed_memory
 from .manifold import make_well_composed, repair_height_field
-from .measure import extreme_per_block, measure_blocks
+from .measure import block_face_split, extreme_per_block, measure_blocks
 from .neighbours import nearest_distance, point_index
 from .parallel import in_background
 from .project import COLUMN_VOXELS, project_nodes
@@ -392,7 +392,9 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     distance[roles.on_block] = nearest_distance(nodes[roles.on_block], [building_search, ground_tree], h,
                                                 [None, near_ground.result()])
     del building_search, ground_tree, near_ground
-    measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance)
+    # The block faces' best splits, for the measures and then the layers' triangles.
+    split = block_face_split(mesh, nodes)
+    measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance, split=split)
     lap("measure")
     report(1.0, f"{len(table)} blocks")
     stats["peak_rss_mb"] = peak_rss
@@ -401,7 +403,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     stats["n_faces"] = int(len(surface.quads))
     return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface, mesh=mesh,
                           measures=measures, footprint_columns=columns, warnings=warnings,
-                          timings=timings, stats=stats)
+                          timings=timings, stats=stats, block_diagonal=split[0])
 
 
 def _reconstruct_clusters(ground, building, ground_cluster, building_cluster, crs, params, airborne,

@@ -110,20 +110,24 @@ class SurfaceModel:
         ijk = np.column_stack([used % nx1, (used // nx1) % ny1, used // (nx1 * ny1)])
         return cls(nodes=grid.node_xyz(ijk), quads=inverse.reshape(-1, 4).astype(np.int64), regions=pairs)
 
-    def triangulated(self) -> "SurfaceModel":
+    def triangulated(self, diagonal: np.ndarray | None = None) -> "SurfaceModel":
         """The same model with every quad split into its two best triangles.
 
         The split is chosen once per quad, on the model's own orientation, so
         the two regions of a face share the same two triangles: after the
         nodes have moved a quad is not planar, and splitting each region's
         copy separately could pick different diagonals and open a gap.
+        ``diagonal`` is each quad's best (:func:`core.quality.best_diagonal`)
+        when the caller has it.
         """
-        from .quality import best_split
+        from .quality import best_diagonal, split_along
 
         if self.quads.shape[1] == 3:
             return self
-        triangles, _ = best_split(self.nodes, self.quads)
-        return SurfaceModel(nodes=self.nodes, quads=triangles, regions=np.repeat(self.regions, 2, axis=0))
+        if diagonal is None:
+            diagonal = best_diagonal(self.nodes, self.quads)
+        return SurfaceModel(nodes=self.nodes, quads=split_along(self.quads, diagonal),
+                            regions=np.repeat(self.regions, 2, axis=0))
 
     def selected(self, keep: np.ndarray) -> "SurfaceModel":
         """The faces ``keep`` (a mask over the faces), in their order, on the same nodes.

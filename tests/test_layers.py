@@ -66,3 +66,25 @@ def test_layers_do_not_depend_on_the_mesh_files_triangulation(result):
     made = fresh(result)
     made.mesh_triangles
     assert list(made.block_surface_wkb()) == blocks and list(made.ground_surface_wkb()) == ground
+
+
+def test_the_measures_splits_are_the_layers_and_mesh_files(result, monkeypatch):
+    """The block faces' splits the measures chose (carried as block_diagonal)
+    give the layers and the mesh files' triangles of a search of their own;
+    the blocks layer then searches none."""
+    from core import quality
+    from core.measure import block_face_split
+
+    assert np.array_equal(result.block_diagonal, block_face_split(result.mesh, result.mesh.nodes)[0])
+    own = dataclasses.replace(result, block_diagonal=None)
+    blocks, ground, triangles = list(own.block_surface_wkb()), list(own.ground_surface_wkb()), own.mesh_triangles
+    searched = []
+    real = quality.best_diagonal
+    monkeypatch.setattr(quality, "best_diagonal", lambda nodes, quads: searched.append(len(quads)) or real(nodes, quads))
+    carried = fresh(result)
+    assert list(carried.block_surface_wkb()) == blocks and searched == []
+    assert list(carried.ground_surface_wkb()) == ground
+    carried = fresh(result)
+    assert np.array_equal(carried.mesh_triangles.quads, triangles.quads)
+    n_block = int(((result.mesh.regions > 0).any(axis=1)).sum())
+    assert searched[-1] == len(result.mesh.quads) - n_block > 0  # only the faces of no block
