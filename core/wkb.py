@@ -15,6 +15,8 @@ from typing import Iterator
 
 import numpy as np
 
+from .parallel import map_ahead
+
 _LITTLE_ENDIAN = 1
 _Z = 0x80000000
 _POLYGON, _MULTIPOLYGON = 3, 6
@@ -33,7 +35,10 @@ def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_g
 
     The polygons are made for about :data:`CHUNK_FACES` faces at a time (at
     least one group), as the caller takes the multipolygons: a writer holds
-    one group's bytes at a time, not a city's.
+    one group's bytes at a time, not a city's, while the threads make the
+    next chunks, at most two each ahead (:func:`core.parallel.map_ahead`;
+    the 1 km city's blocks layer 0.71-0.74 -> 0.67-0.71 s, its ground
+    layer 0.49-0.56 -> 0.48-0.53 s with nothing else to do meanwhile).
 
     Parameters
     ----------
@@ -68,23 +73,32 @@ def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_g
     size = prefix.size + 24 * (k + 1)
     header = np.dtype([("order", "u1"), ("type", "<u4"), ("count", "<u4")])
     bounds = np.searchsorted(group, np.arange(n_groups + 1))
-    first = 0
+    # Chunks of whole groups, about CHUNK_FACES faces each (at least one group).
+    chunks, first = [], 0
     while first < n_groups:
         stop = min(n_groups, max(first + 1, int(np.searchsorted(bounds, bounds[first] + CHUNK_FACES, "right")) - 1))
-        chunk = faces[bounds[first]:bounds[stop]]
+        chunks.append((first, stop))
+        first = stop
+
+    def records_of(chunk: tuple[int, int]) -> np.ndarray:
+        """The polygons of a chunk's faces, as bytes in a row each."""
+        faces_of = faces[bounds[chunk[0]]:bounds[chunk[1]]]
         # The closed rings' coordinates in a table of their own (aligned, so
         # the gathers run at full speed), then copied after the prefixes.
-        xyz = np.empty((len(chunk), k + 1, 3))
+        xyz = np.empty((len(faces_of), k + 1, 3))
         for corner in range(k):
-            xyz[:, corner] = nodes.take(chunk[:, corner], axis=0)  # take: faster rows (core.vectors)
+            xyz[:, corner] = nodes.take(faces_of[:, corner], axis=0)  # take: faster rows (core.vectors)
         xyz[:, k] = xyz[:, 0]
-        records = np.empty((len(chunk), size), np.uint8)
+        records = np.empty((len(faces_of), size), np.uint8)
         records[:, :prefix.size] = prefix
-        records[:, prefix.size:] = xyz.view(np.uint8).reshape(len(chunk), size - prefix.size)
-        records = records.reshape(-1)
+        records[:, prefix.size:] = xyz.view(np.uint8).reshape(len(faces_of), size - prefix.size)
+        return records.reshape(-1)
+
+    # The chunks are made on the threads ahead of the caller (core.parallel):
+    # a GIS writer parses and writes one while the next ones are made.
+    for (first, stop), records in zip(chunks, map_ahead(records_of, chunks)):
         for g in range(first, stop):
             head = np.array([(_LITTLE_ENDIAN, _Z | _MULTIPOLYGON, bounds[g + 1] - bounds[g])], dtype=header)
             start = (bounds[g] - bounds[first]) * size
             # One copy of the records (join takes the memory as it is).
             yield b"".join((head.tobytes(), memoryview(records[start:start + (bounds[g + 1] - bounds[g]) * size])))
-        first = stop

@@ -39,8 +39,9 @@ def test_nothing_to_write_makes_nothing():
 
 
 def test_the_multipolygons_are_made_as_they_are_taken(monkeypatch):
-    # A writer holds one chunk's records, not a city's: the second chunk is
-    # not made before the first chunk's groups are taken.
+    # A writer holds a few chunks' records, not a city's: on one thread, the
+    # second chunk is not made before the first chunk's groups are taken; on
+    # more, the threads make at most two chunks each ahead of the writer.
     monkeypatch.setattr(wkb_module, "CHUNK_FACES", 4)
     gathered = []
     nodes = np.arange(30.0).reshape(10, 3)
@@ -51,9 +52,17 @@ def test_the_multipolygons_are_made_as_they_are_taken(monkeypatch):
             return np.asarray(self).take(indices, axis=axis)
 
     faces = np.arange(24).reshape(8, 3) % 10
+    monkeypatch.setenv("URBANVOX_THREADS", "1")
     made = multipolygons_z(nodes.view(Nodes), faces, np.repeat(np.arange(4), 2), 4)
     next(made)
     assert gathered == [4, 4, 4]  # the first chunk's three corners: two groups of two faces
     next(made)
     assert gathered == [4, 4, 4]
     assert len(list(made)) == 2 and gathered == [4, 4, 4] * 2
+    gathered.clear()
+    monkeypatch.setenv("URBANVOX_THREADS", "2")
+    many = np.arange(120).reshape(40, 3) % 10
+    made = multipolygons_z(nodes.view(Nodes), many, np.repeat(np.arange(20), 2), 20)  # ten chunks
+    next(made)
+    assert len(gathered) <= 3 * (1 + 2 * 2)
+    assert len(list(made)) == 19 and gathered == [4] * 30
