@@ -16,7 +16,8 @@ elimination's support test (:mod:`core.support_kernel`), the faces between
 regions (:mod:`core.surface_kernel`), the selections
 of moved nodes and the faces around them (:mod:`core.topology_kernel`) and
 the entities of the gmsh export (:mod:`core.export_kernel`), the text of the
-mesh files' numbers (:mod:`core.row_text_kernel`),
+mesh files' numbers (:mod:`core.row_text_kernel`), the preview's depth buffer
+(:mod:`core.preview_kernel`),
 the per-block sums of the measures (:mod:`core.measure_kernel`), the
 faces each tile owns and the numbering and copying of the tiles' nodes
 and faces into one model (:mod:`core.tiles_kernel`), the
@@ -55,8 +56,8 @@ from .errors import Cancelled
 #: a file is read, and the reader uses its own once it is loaded.
 KERNELS = ("las_kernel", "blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
            "manifold_kernel", "measure_kernel", "mls_kernel", "neighbours_kernel", "normals_kernel",
-           "projection_kernel", "quality_kernel", "row_text_kernel", "smooth_kernel", "support_kernel",
-           "surface_kernel", "tiles_kernel", "topology_kernel")
+           "preview_kernel", "projection_kernel", "quality_kernel", "row_text_kernel", "smooth_kernel",
+           "support_kernel", "surface_kernel", "tiles_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import jit
 from .heap import reusing_freed_memory
 from .surface import AIR_REGION, GROUND_REGION, SurfaceModel, rank_in
 from .topology import run_starts
@@ -34,6 +35,8 @@ def _view_axes() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 #: Width of a panel's picture in pixels, and samples per pixel of a triangle's area.
 _PIXELS, _SAMPLES_PER_PIXEL = 770, 3.0
+#: Steps of the R2 low-discrepancy sequence (the samples inside a triangle).
+_R2_U, _R2_V = 0.7548776662466927, 0.5698402909980532
 
 
 def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: float, title: str) -> None:
@@ -127,18 +130,63 @@ def _rasterised(corners: list[Vector], colours: np.ndarray) -> tuple[np.ndarray,
     upper = np.array([max(corner[axis].max() for corner in corners) for axis in range(2)])
     scale = (_PIXELS - 1) / max(float(upper[0] - lower[0]), 1e-12)
     width, height = _PIXELS, int(np.floor((upper[1] - lower[1]) * scale)) + 1
+    # The triangle of every pixel's nearest sample (core.preview_kernel: one
+    # pass, a depth buffer; 2.4 s of numpy's 4.8 s on the 1 km city's panels).
+    args = ([value for corner in corners for value in corner], float(lower[0]), float(lower[1]), float(scale),
+            width, height)
+    nearest = jit.run("preview_kernel", "nearest_triangles", *args, size=len(colours))
+    if nearest is None:
+        nearest = nearest_triangles(*args)
+    image = np.zeros((height * width, 4))
+    drawn = nearest >= 0
+    image[drawn] = colours[nearest[drawn]]
+    extent = (float(lower[0]), float(lower[0] + (width - 1) / scale),
+              float(lower[1]), float(lower[1] + (height - 1) / scale))
+    return _fill_specks(image.reshape(height, width, 4)), extent
+
+
+def nearest_triangles(corners: list[np.ndarray], left: float, bottom: float, scale: float, width: int,
+                      height: int) -> np.ndarray:
+    """The triangle of the nearest sample in every pixel of a ``height`` x
+    ``width`` picture, -1 where none fell (row by row from the bottom).
+
+    Parameters
+    ----------
+    corners : list of 9 ndarray (T,)
+        x, y and depth (larger is nearer) of the triangles' first corner,
+        then of the second and the third, in view coordinates.
+    left, bottom, scale : float
+        The picture's lower left corner in view coordinates, and pixels per unit.
+
+    Notes
+    -----
+    Each triangle is sampled in proportion to its area on the picture (its
+    centroid for one within a pixel), spread by the R2 low-discrepancy
+    sequence folded into the triangle. The nearest sample of a pixel is the
+    one least far behind the nearest of all, on a 31-bit scale; of equals,
+    the first (by triangle, then sample).
+
+    Examples
+    --------
+    A triangle and a smaller one nearer, over a 5 x 5 picture:
+
+    >>> far = [np.array([v]) for v in (0.0, 0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 5.0, 0.0)]
+    >>> near = [np.array([v]) for v in (0.0, 0.0, 1.0, 3.0, 0.0, 1.0, 0.0, 3.0, 1.0)]
+    >>> picture = nearest_triangles([np.concatenate(pair) for pair in zip(far, near)], 0.0, 0.0, 1.0, 5, 5)
+    >>> picture.reshape(5, 5)[::-1].tolist()  # top row first; -1: no sample fell there
+    [[0, -1, -1, -1, -1], [1, 0, 0, -1, -1], [1, 1, 1, 0, -1], [1, 1, 1, 0, 0], [-1, 1, 1, 0, 0]]
+    """
+    x0, y0, z0, x1, y1, z1, x2, y2, z2 = corners
     # Pixel coordinates (depth kept) of the first corner and the two edges from it.
-    pixel = [[(corner[axis] - lower[axis]) * scale for axis in range(2)] + [corner[2]] for corner in corners]
+    pixel = [[(x - offset) * scale for x, offset in ((xk, left), (yk, bottom))] + [zk]
+             for xk, yk, zk in ((x0, y0, z0), (x1, y1, z1), (x2, y2, z2))]
     origin, edge1, edge2 = pixel[0], minus(pixel[1], pixel[0]), minus(pixel[2], pixel[0])
     del pixel
-    # Samples in proportion to each triangle's area on the picture (its
-    # centroid for one within a pixel), spread by the R2 low-discrepancy
-    # sequence folded into the triangle.
     area = 0.5 * np.abs(edge1[0] * edge2[1] - edge1[1] * edge2[0])
     count = np.maximum(1, np.ceil(area * _SAMPLES_PER_PIXEL)).astype(np.int64)
     owner = np.repeat(np.arange(len(count)), count)
     j = np.arange(len(owner)) - np.repeat(np.cumsum(count) - count, count)
-    u, v = (0.5 + j * 0.7548776662466927) % 1.0, (0.5 + j * 0.5698402909980532) % 1.0
+    u, v = (0.5 + j * _R2_U) % 1.0, (0.5 + j * _R2_V) % 1.0
     fold = u + v > 1.0
     u[fold], v[fold] = 1.0 - u[fold], 1.0 - v[fold]
     single = count[owner] == 1
@@ -147,20 +195,19 @@ def _rasterised(corners: list[Vector], colours: np.ndarray) -> tuple[np.ndarray,
               for axis in range(3)]
     column = np.clip(np.rint(sample[0]), 0, width - 1).astype(np.int64)
     row = np.clip(np.rint(sample[1]), 0, height - 1).astype(np.int64)
-    # Depth buffer: the nearest sample of every pixel, from one sort of the
-    # pixel and the (31-bit) distance behind the nearest sample.
+    # Depth buffer: the nearest sample of every pixel, from one stable sort
+    # of the pixel and the (31-bit) distance behind the nearest sample.
     depth = sample[2]
-    behind = (depth.max() - depth) / max(float(np.ptp(depth)), 1e-300) * (2**31 - 1)
+    nearest = np.full(height * width, -1, dtype=np.int64)
+    if len(depth) == 0:
+        return nearest
+    behind = (depth.max() - depth) / max(float(depth.max() - depth.min()), 1e-300) * (2**31 - 1)
     key = (row * width + column) << 31 | behind.astype(np.int64)
-    order = np.argsort(key)
+    order = np.argsort(key, kind="stable")
     pixel_of = key[order] >> 31
     first = run_starts(pixel_of)
-    nearest = order[first]
-    image = np.zeros((height * width, 4))
-    image[pixel_of[first]] = colours[owner[nearest]]
-    extent = (float(lower[0]), float(lower[0] + (width - 1) / scale),
-              float(lower[1]), float(lower[1] + (height - 1) / scale))
-    return _fill_specks(image.reshape(height, width, 4)), extent
+    nearest[pixel_of[first]] = owner[order[first]]
+    return nearest
 
 
 def _fill_specks(image: np.ndarray) -> np.ndarray:
