@@ -11,6 +11,7 @@ laid out and written with matplotlib's Agg backend (no display needed).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
@@ -65,21 +66,28 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     columns = [x, y, np.ascontiguousarray(view_nodes[:, 2])]
     corners = [[column.take(corner.take(facing)) for column in columns] for corner in (a, b, c)]
     del x, y, columns
-    e1, e2 = minus(corners[1], corners[0]), minus(corners[2], corners[0])
-    normal = np.column_stack([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], towards_eye[facing]])
-    del e1, e2
-    on_block = facing < len(block_tri)
-    owner = owner[facing[on_block]]
     values = np.array(list(height_of_block.values()), dtype=np.float64)
-    rank = rank_in(owner, list(height_of_block))
-    heights = np.where(rank >= 0, values[rank], 0.0) if len(values) else np.zeros(len(owner))
-    colours = np.empty((len(facing), 4))
-    colours[on_block] = cm.viridis(np.clip(heights / max(vmax, 1e-9), 0, 1))
-    colours[~on_block] = (0.78, 0.76, 0.70, 1.0)
-    length = np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
     light = np.array([0.3, 0.5, 0.8]) @ rotation
-    colours[:, :3] *= (0.55 + 0.45 * np.clip((normal @ light) / length, 0, 1))[:, None]
-    image, extent = _rasterised(corners, colours)
+
+    def colours_of(shown: np.ndarray) -> np.ndarray:
+        """RGBA of the facing faces ``shown`` (the pixels' nearest: a few
+        hundred thousand of a city's millions), by height, lit by their normal."""
+        corner = [[value.take(shown) for value in point] for point in corners]
+        e1, e2 = minus(corner[1], corner[0]), minus(corner[2], corner[0])
+        face = facing.take(shown)
+        normal = np.column_stack([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], towards_eye[face]])
+        on_block = face < len(block_tri)
+        block = owner[face[on_block]]
+        rank = rank_in(block, list(height_of_block))
+        heights = np.where(rank >= 0, values[rank], 0.0) if len(values) else np.zeros(len(block))
+        colours = np.empty((len(shown), 4))
+        colours[on_block] = cm.viridis(np.clip(heights / max(vmax, 1e-9), 0, 1))
+        colours[~on_block] = (0.78, 0.76, 0.70, 1.0)
+        length = np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
+        colours[:, :3] *= (0.55 + 0.45 * np.clip((normal @ light) / length, 0, 1))[:, None]
+        return colours
+
+    image, extent = _rasterised(corners, colours_of)
     ax.imshow(image, origin="lower", extent=extent, interpolation="nearest")
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
@@ -105,10 +113,13 @@ def _triangles(faces: np.ndarray, owner: np.ndarray | None = None) -> tuple[np.n
             None if owner is None else np.concatenate([owner, owner]))
 
 
-def _rasterised(corners: list[Vector], colours: np.ndarray) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+def _rasterised(corners: list[Vector], colours_of: Callable[[np.ndarray], np.ndarray]
+                ) -> tuple[np.ndarray, tuple[float, float, float, float]]:
     """RGBA picture of triangles given in view coordinates, and its extent
     (x0, x1, y0, y1). ``corners`` are the triangles' three corners, each a
-    :mod:`core.vectors` vector of (T,) arrays: x, y and depth (larger is nearer).
+    :mod:`core.vectors` vector of (T,) arrays: x, y and depth (larger is
+    nearer); ``colours_of(shown)`` gives the RGBA of the triangles ``shown``
+    (those of the picture, ascending).
 
     Examples
     --------
@@ -118,13 +129,13 @@ def _rasterised(corners: list[Vector], colours: np.ndarray) -> tuple[np.ndarray,
     >>> near = square + [0.25, 0.25, 1.0]
     >>> view = np.concatenate([square, near])
     >>> rgba = np.array([[0, 0, 1, 1], [0, 0, 1, 1], [1, 0, 0, 1], [1, 0, 0, 1]], float)
-    >>> image, extent = _rasterised([[view[:, k, c] for c in range(3)] for k in range(3)], rgba)
+    >>> image, extent = _rasterised([[view[:, k, c] for c in range(3)] for k in range(3)], lambda shown: rgba[shown])
     >>> image.shape[1], extent
     (770, (0.0, 1.25, 0.0, 1.25))
     >>> image[-5, -5].tolist(), image[5, 5].tolist(), image[-5, 5].tolist()
     ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.0])
     """
-    if len(colours) == 0:
+    if len(corners[0][0]) == 0:
         return np.zeros((1, 1, 4)), (0.0, 1.0, 0.0, 1.0)
     lower = np.array([min(corner[axis].min() for corner in corners) for axis in range(2)])
     upper = np.array([max(corner[axis].max() for corner in corners) for axis in range(2)])
@@ -134,12 +145,13 @@ def _rasterised(corners: list[Vector], colours: np.ndarray) -> tuple[np.ndarray,
     # pass, a depth buffer; 2.4 s of numpy's 4.8 s on the 1 km city's panels).
     args = ([value for corner in corners for value in corner], float(lower[0]), float(lower[1]), float(scale),
             width, height)
-    nearest = jit.run("preview_kernel", "nearest_triangles", *args, size=len(colours))
+    nearest = jit.run("preview_kernel", "nearest_triangles", *args, size=len(corners[0][0]))
     if nearest is None:
         nearest = nearest_triangles(*args)
     image = np.zeros((height * width, 4))
     drawn = nearest >= 0
-    image[drawn] = colours[nearest[drawn]]
+    shown, which = np.unique(nearest[drawn], return_inverse=True)
+    image[drawn] = colours_of(shown)[which.ravel()]
     extent = (float(lower[0]), float(lower[0] + (width - 1) / scale),
               float(lower[1]), float(lower[1] + (height - 1) / scale))
     return _fill_specks(image.reshape(height, width, 4)), extent

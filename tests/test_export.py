@@ -165,10 +165,15 @@ def test_gmsh_meshes_the_zurich_stl(shared_data, tmp_path):
     assert worst > 0
 
 
-def test_preview_png(result, tmp_path):
+def test_preview_png(result, tmp_path, monkeypatch, compiled):
+    """A picture, the same with the compiled depth buffer and without."""
+    compiled("preview_kernel")
+    monkeypatch.setenv("URBANVOX_JIT", "always")
     path = result.write_preview(tmp_path / "city.png")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert path.stat().st_size > 20_000
+    monkeypatch.setenv("URBANVOX_JIT", "0")
+    assert result.write_preview(tmp_path / "numpy.png").read_bytes() == path.read_bytes()
 
 
 def _face_parts(faces, n_nodes):
