@@ -52,42 +52,32 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     # its depth component says whether it is turned to the viewer.
     rotation = np.column_stack([right, up, eye])
     view_nodes = model.nodes @ rotation
-    # Each corner's coordinates gathered once, from contiguous columns.
-    x, y = np.ascontiguousarray(view_nodes[:, 0]), np.ascontiguousarray(view_nodes[:, 1])
+    # Each corner's coordinates gathered from contiguous columns.
+    x, y, z = (np.ascontiguousarray(view_nodes[:, axis]) for axis in range(3))
     a, b, c = (np.ascontiguousarray(corner) for corner in faces.T)
-    xa, ya = x.take(a), y.take(a)
-    towards_eye = (x.take(b) - xa) * (y.take(c) - ya) - (y.take(b) - ya) * (x.take(c) - xa)
-    del xa, ya
-    # Only the faces turned to the viewer are coloured and drawn. Their
-    # corners one coordinate at a time (three (T,) arrays each, gathered from
-    # contiguous columns): (T, 3, 3) tables of them and their gathers took
-    # seconds on a city.
-    facing = np.flatnonzero(towards_eye > 0)
-    columns = [x, y, np.ascontiguousarray(view_nodes[:, 2])]
-    corners = [[column.take(corner.take(facing)) for column in columns] for corner in (a, b, c)]
-    del x, y, columns
     values = np.array(list(height_of_block.values()), dtype=np.float64)
     light = np.array([0.3, 0.5, 0.8]) @ rotation
 
-    def colours_of(shown: np.ndarray) -> np.ndarray:
-        """RGBA of the facing faces ``shown`` (the pixels' nearest: a few
-        hundred thousand of a city's millions), by height, lit by their normal."""
-        corner = [[value.take(shown) for value in point] for point in corners]
+    def colours_of(face: np.ndarray) -> np.ndarray:
+        """RGBA of the faces ``face`` (the pixels' nearest: a few hundred
+        thousand of a city's millions), by height, lit by their normal (its
+        depth component: the face's turn towards the eye)."""
+        corner = [[column.take(point.take(face)) for column in (x, y, z)] for point in (a, b, c)]
         e1, e2 = minus(corner[1], corner[0]), minus(corner[2], corner[0])
-        face = facing.take(shown)
-        normal = np.column_stack([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], towards_eye[face]])
+        towards_eye = e1[0] * e2[1] - e1[1] * e2[0]
+        normal = np.column_stack([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], towards_eye])
         on_block = face < len(block_tri)
         block = owner[face[on_block]]
         rank = rank_in(block, list(height_of_block))
         heights = np.where(rank >= 0, values[rank], 0.0) if len(values) else np.zeros(len(block))
-        colours = np.empty((len(shown), 4))
+        colours = np.empty((len(face), 4))
         colours[on_block] = cm.viridis(np.clip(heights / max(vmax, 1e-9), 0, 1))
         colours[~on_block] = (0.78, 0.76, 0.70, 1.0)
         length = np.maximum(np.linalg.norm(normal, axis=1), 1e-300)
         colours[:, :3] *= (0.55 + 0.45 * np.clip((normal @ light) / length, 0, 1))[:, None]
         return colours
 
-    image, extent = _rasterised(corners, colours_of)
+    image, extent = _rasterised((x, y, z), (a, b, c), colours_of)
     ax.imshow(image, origin="lower", extent=extent, interpolation="nearest")
     ax.set_xlim(extent[0], extent[1])
     ax.set_ylim(extent[2], extent[3])
@@ -113,41 +103,36 @@ def _triangles(faces: np.ndarray, owner: np.ndarray | None = None) -> tuple[np.n
             None if owner is None else np.concatenate([owner, owner]))
 
 
-def _rasterised(corners: list[Vector], colours_of: Callable[[np.ndarray], np.ndarray]
-                ) -> tuple[np.ndarray, tuple[float, float, float, float]]:
-    """RGBA picture of triangles given in view coordinates, and its extent
-    (x0, x1, y0, y1). ``corners`` are the triangles' three corners, each a
-    :mod:`core.vectors` vector of (T,) arrays: x, y and depth (larger is
-    nearer); ``colours_of(shown)`` gives the RGBA of the triangles ``shown``
-    (those of the picture, ascending).
+def _rasterised(columns: tuple[np.ndarray, np.ndarray, np.ndarray], faces: tuple[np.ndarray, np.ndarray, np.ndarray],
+                colours_of: Callable[[np.ndarray], np.ndarray]) -> tuple[np.ndarray, tuple[float, float, float, float]]:
+    """RGBA picture of the triangles turned to the viewer, and its extent
+    (x0, x1, y0, y1). ``columns`` are the nodes' x, y and depth (larger is
+    nearer) in view coordinates, ``faces`` the triangles' three corners;
+    ``colours_of(shown)`` gives the RGBA of the triangles ``shown`` (those
+    of the picture, ascending).
 
     Examples
     --------
     Two squares' worth of triangles, the nearer red one over the blue one:
 
-    >>> square = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
-    >>> near = square + [0.25, 0.25, 1.0]
-    >>> view = np.concatenate([square, near])
+    >>> square = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    >>> nodes = np.concatenate([square, square + [0.25, 0.25, 1.0]])
+    >>> faces = np.array([[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]])
     >>> rgba = np.array([[0, 0, 1, 1], [0, 0, 1, 1], [1, 0, 0, 1], [1, 0, 0, 1]], float)
-    >>> image, extent = _rasterised([[view[:, k, c] for c in range(3)] for k in range(3)], lambda shown: rgba[shown])
+    >>> image, extent = _rasterised(tuple(nodes.T.copy()), tuple(faces.T.copy()), lambda shown: rgba[shown])
     >>> image.shape[1], extent
     (770, (0.0, 1.25, 0.0, 1.25))
     >>> image[-5, -5].tolist(), image[5, 5].tolist(), image[-5, 5].tolist()
     ([1.0, 0.0, 0.0, 1.0], [0.0, 0.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.0])
     """
-    if len(corners[0][0]) == 0:
+    # The face of every pixel's nearest sample (core.preview_kernel: the
+    # culling and a depth buffer in passes over the faces; numpy gathers
+    # the facing faces' corners and sorts the samples).
+    found = jit.run("preview_kernel", "nearest_faces", columns, faces, size=len(faces[0]))
+    nearest, lower, upper = found if found is not None else nearest_faces(columns, faces)
+    if lower is None:
         return np.zeros((1, 1, 4)), (0.0, 1.0, 0.0, 1.0)
-    lower = np.array([min(corner[axis].min() for corner in corners) for axis in range(2)])
-    upper = np.array([max(corner[axis].max() for corner in corners) for axis in range(2)])
-    scale = (_PIXELS - 1) / max(float(upper[0] - lower[0]), 1e-12)
-    width, height = _PIXELS, int(np.floor((upper[1] - lower[1]) * scale)) + 1
-    # The triangle of every pixel's nearest sample (core.preview_kernel: one
-    # pass, a depth buffer; 2.4 s of numpy's 4.8 s on the 1 km city's panels).
-    args = ([value for corner in corners for value in corner], float(lower[0]), float(lower[1]), float(scale),
-            width, height)
-    nearest = jit.run("preview_kernel", "nearest_triangles", *args, size=len(corners[0][0]))
-    if nearest is None:
-        nearest = nearest_triangles(*args)
+    scale, width, height = picture_frame(lower, upper)
     image = np.zeros((height * width, 4))
     drawn = nearest >= 0
     shown, which = np.unique(nearest[drawn], return_inverse=True)
@@ -155,6 +140,49 @@ def _rasterised(corners: list[Vector], colours_of: Callable[[np.ndarray], np.nda
     extent = (float(lower[0]), float(lower[0] + (width - 1) / scale),
               float(lower[1]), float(lower[1] + (height - 1) / scale))
     return _fill_specks(image.reshape(height, width, 4)), extent
+
+
+def picture_frame(lower: np.ndarray, upper: np.ndarray) -> tuple[float, int, int]:
+    """Pixels per unit, width and height of the picture of a view's box
+    (its lower and upper x and y): :data:`_PIXELS` wide.
+
+    Examples
+    --------
+    >>> picture_frame(np.array([0.0, 0.0]), np.array([7.69, 1.0]))
+    (100.0, 770, 101)
+    """
+    scale = (_PIXELS - 1) / max(float(upper[0] - lower[0]), 1e-12)
+    return scale, _PIXELS, int(np.floor((upper[1] - lower[1]) * scale)) + 1
+
+
+def nearest_faces(columns: tuple[np.ndarray, np.ndarray, np.ndarray], faces: tuple[np.ndarray, np.ndarray, np.ndarray]
+                  ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """The face of the nearest sample in every pixel of the picture of the
+    faces turned to the viewer (-1 where none fell), and the box of those
+    faces' corners in x and y (None and None when no face is turned to it).
+
+    ``columns`` are the nodes' x, y and depth in view coordinates, ``faces``
+    the triangles' corners (three (T,) arrays); the picture's frame is
+    :func:`picture_frame`'s, the samples :func:`nearest_triangles`'.
+    """
+    x, y, z = columns
+    a, b, c = faces
+    xa, ya = x.take(a), y.take(a)
+    towards_eye = (x.take(b) - xa) * (y.take(c) - ya) - (y.take(b) - ya) * (x.take(c) - xa)
+    del xa, ya
+    # Only the faces turned to the viewer are drawn. Their corners one
+    # coordinate at a time (three (T,) arrays each, gathered from contiguous
+    # columns): (T, 3, 3) tables of them and their gathers took seconds on a city.
+    facing = np.flatnonzero(towards_eye > 0)
+    if len(facing) == 0:
+        return np.full(1, -1, dtype=np.int64), None, None
+    corners = [[column.take(corner.take(facing)) for column in columns] for corner in faces]
+    lower = np.array([min(corner[axis].min() for corner in corners) for axis in range(2)])
+    upper = np.array([max(corner[axis].max() for corner in corners) for axis in range(2)])
+    scale, width, height = picture_frame(lower, upper)
+    nearest = nearest_triangles([value for corner in corners for value in corner], float(lower[0]),
+                                float(lower[1]), scale, width, height)
+    return np.where(nearest >= 0, facing.take(np.maximum(nearest, 0)), -1), lower, upper
 
 
 def nearest_triangles(corners: list[np.ndarray], left: float, bottom: float, scale: float, width: int,

@@ -12,59 +12,83 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import compiled
-from .preview import _R2_U, _R2_V, _SAMPLES_PER_PIXEL
+from .preview import _R2_U, _R2_V, _SAMPLES_PER_PIXEL, picture_frame
 
 
-def nearest_triangles(corners: list[np.ndarray], left: float, bottom: float, scale: float, width: int,
-                      height: int) -> np.ndarray:
-    """:func:`core.preview.nearest_triangles` (the numpy twin), in two
-    passes over the samples: their depths' range, then the depth buffer.
+def nearest_faces(columns: tuple[np.ndarray, np.ndarray, np.ndarray], faces: tuple[np.ndarray, np.ndarray, np.ndarray]
+                  ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """:func:`core.preview.nearest_faces` (the numpy twin).
 
     Examples
     --------
-    >>> far = [np.array([v]) for v in (0.0, 0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 5.0, 0.0)]
-    >>> near = [np.array([v]) for v in (0.0, 0.0, 1.0, 3.0, 0.0, 1.0, 0.0, 3.0, 1.0)]
-    >>> picture = nearest_triangles([np.concatenate(pair) for pair in zip(far, near)], 0.0, 0.0, 1.0, 5, 5)
-    >>> picture.reshape(5, 5)[::-1].tolist()  # top row first; -1: no sample fell there
-    [[0, -1, -1, -1, -1], [1, 0, 0, -1, -1], [1, 1, 1, 0, -1], [1, 1, 1, 0, 0], [-1, 1, 1, 0, 0]]
+    A triangle and a smaller one nearer, and one turned away:
+
+    >>> x, y = np.array([0.0, 5, 0, 3, 0]), np.array([0.0, 0, 5, 0, 3])
+    >>> z = np.array([0.0, 0, 0, 1, 1])
+    >>> faces = (np.array([0, 0, 0]), np.array([1, 3, 4]), np.array([2, 4, 3]))
+    >>> nearest, lower, upper = nearest_faces((x, y, z), faces)
+    >>> sorted(set(nearest.tolist())), lower.tolist(), upper.tolist()
+    ([-1, 0, 1], [0.0, 0.0], [5.0, 5.0])
     """
-    columns = tuple(np.ascontiguousarray(value, dtype=np.float64) for value in corners)  # no (9, T) copy
-    return _nearest(columns, float(left), float(bottom), float(scale), int(width), int(height))
+    x, y, z = (np.ascontiguousarray(column, dtype=np.float64) for column in columns)
+    a, b, c = (np.ascontiguousarray(corner, dtype=np.int64) for corner in faces)
+    found, lower, upper = _facing_box(x, y, a, b, c)
+    if not found:
+        return np.full(1, -1, dtype=np.int64), None, None
+    scale, width, height = picture_frame(lower, upper)
+    return _nearest_faces(x, y, z, a, b, c, float(lower[0]), float(lower[1]), scale, width, height), lower, upper
 
 
 def warm_up() -> int:
-    """Compile for the arrays the preview passes (the docstring's)."""
-    far = [np.array([v]) for v in (0.0, 0.0, 0.0, 3.0, 0.0, 0.0, 0.0, 3.0, 0.0)]
-    picture = nearest_triangles(far, 0.0, 0.0, 1.0, 4, 4)
-    assert picture.tolist() == [-1, 0, 0, -1, 0, 0, 0, -1, 0, 0, 0, -1, 0, -1, -1, -1], picture
+    """Compile for the arrays the preview passes (a triangle)."""
+    nearest, _, _ = nearest_faces((np.array([0.0, 3, 0]), np.array([0.0, 0, 3]), np.zeros(3)),
+                                  (np.array([0]), np.array([1]), np.array([2])))
+    assert set(nearest.tolist()) == {-1, 0}, nearest
     return 1
 
 
 @compiled
-def _nearest(corners, left, bottom, scale, width, height):
-    """:func:`nearest_triangles` of the nine columns of the corners' x, y, depth."""
-    x0, y0, z0, x1, y1, z1, x2, y2, z2 = corners
-    n = len(x0)
-    nearest = np.full(height * width, -1, np.int64)
-    # First pass: the samples' depths' range; second: the depth buffer.
-    deepest, nearest_depth = np.inf, -np.inf
-    behind_of = np.zeros(height * width, np.int64)
+def _facing_box(x, y, a, b, c):
+    """Whether a face is turned to the viewer, and the box of their corners in x and y."""
+    lower = np.array([np.inf, np.inf])
+    upper = np.array([-np.inf, -np.inf])
     found = False
+    for t in range(len(a)):
+        xa, ya = x[a[t]], y[a[t]]
+        if (x[b[t]] - xa) * (y[c[t]] - ya) - (y[b[t]] - ya) * (x[c[t]] - xa) > 0:
+            found = True
+            for node in (a[t], b[t], c[t]):
+                lower[0] = min(lower[0], x[node])
+                lower[1] = min(lower[1], y[node])
+                upper[0] = max(upper[0], x[node])
+                upper[1] = max(upper[1], y[node])
+    return found, lower, upper
+
+
+@compiled
+def _nearest_faces(x, y, z, a, b, c, left, bottom, scale, width, height):
+    """The nearest face of every pixel (:func:`nearest_faces`): the samples'
+    depths' range, then the depth buffer, each a pass over the faces turned
+    to the viewer."""
+    nearest = np.full(height * width, -1, np.int64)
+    behind_of = np.zeros(height * width, np.int64)
+    deepest, nearest_depth, span = np.inf, -np.inf, 1.0
     for step in range(2):
         if step == 1:
-            if not found:
-                return nearest
             span = max(nearest_depth - deepest, 1e-300)
-        for t in range(n):
-            ox = (x0[t] - left) * scale
-            oy = (y0[t] - bottom) * scale
-            oz = z0[t]
-            e1x = (x1[t] - left) * scale - ox
-            e1y = (y1[t] - bottom) * scale - oy
-            e1z = z1[t] - oz
-            e2x = (x2[t] - left) * scale - ox
-            e2y = (y2[t] - bottom) * scale - oy
-            e2z = z2[t] - oz
+        for t in range(len(a)):
+            xa, ya = x[a[t]], y[a[t]]
+            if not (x[b[t]] - xa) * (y[c[t]] - ya) - (y[b[t]] - ya) * (x[c[t]] - xa) > 0:
+                continue
+            ox = (xa - left) * scale
+            oy = (ya - bottom) * scale
+            oz = z[a[t]]
+            e1x = (x[b[t]] - left) * scale - ox
+            e1y = (y[b[t]] - bottom) * scale - oy
+            e1z = z[b[t]] - oz
+            e2x = (x[c[t]] - left) * scale - ox
+            e2y = (y[c[t]] - bottom) * scale - oy
+            e2z = z[c[t]] - oz
             area = 0.5 * abs(e1x * e2y - e1y * e2x)
             count = max(1, np.int64(np.ceil(area * _SAMPLES_PER_PIXEL)))
             for j in range(count):
@@ -78,7 +102,6 @@ def _nearest(corners, left, bottom, scale, width, height):
                 if step == 0:
                     deepest = min(deepest, depth)
                     nearest_depth = max(nearest_depth, depth)
-                    found = True
                     continue
                 column = np.int64(min(max(np.rint(ox + u * e1x + v * e2x), 0.0), width - 1))
                 row = np.int64(min(max(np.rint(oy + u * e1y + v * e2y), 0.0), height - 1))
