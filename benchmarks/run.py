@@ -228,6 +228,10 @@ def _run_once(spec: dict, params, airborne: bool):
         lap = time.perf_counter()
         result.write_mesh(Path(tmp) / "mesh_binary.msh", binary=True)
         stages["export_msh_binary"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
+        # The picture the Processing algorithms draw beside every mesh file.
+        lap = time.perf_counter()
+        result.write_preview(Path(tmp) / "mesh.png")
+        stages["preview"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
     report["pipeline_s"] = pipeline_s
     report["blocks"] = int(len(result.blocks))
     report["faces"] = int(len(result.surface.quads))
