@@ -164,8 +164,8 @@
       <translation>Mit Kacheln: die Adresse eines laufenden Dask-Schedulers (tcp://host:8786), dessen Worker den Kern von urbanvox importieren können; ersetzt die Zahl der Worker.</translation>
     </message>
     <message>
-      <source>Write the gmsh mesh file (.msh) in gmsh's binary encoding: the same content, read by gmsh and meshio, written about twice as fast on a city, and with exact coordinates (the text rounds them to 0.1 mm). The other mesh formats ignore it.</source>
-      <translation>Schreibt die gmsh-Netzdatei (.msh) in der Binärkodierung von gmsh: derselbe Inhalt, von gmsh und meshio gelesen, auf einer Stadt etwa doppelt so schnell geschrieben, mit exakten Koordinaten (der Text rundet sie auf 0,1 mm). Die anderen Netzformate ignorieren es.</translation>
+      <source>Write the gmsh mesh file (.msh) in gmsh's binary encoding: the same content, read by gmsh and meshio, written faster on a city, and with exact coordinates (the text rounds them to 0.1 mm). The other mesh formats ignore it.</source>
+      <translation>Schreibt die gmsh-Netzdatei (.msh) in der Binärkodierung von gmsh: derselbe Inhalt, von gmsh und meshio gelesen, auf einer Stadt schneller geschrieben, mit exakten Koordinaten (der Text rundet sie auf 0,1 mm). Die anderen Netzformate ignorieren es.</translation>
     </message>
     <message>
       <source>One feature per building block: its closed 3-D surface, with height, areas, volumes, mesh quality and distance to the data.</source>

@@ -164,8 +164,8 @@
       <translation>Avec des tuiles : l'adresse d'un ordonnanceur Dask en service (tcp://hôte:8786) dont les processus peuvent importer le cœur d'urbanvox ; remplace le nombre de processus.</translation>
     </message>
     <message>
-      <source>Write the gmsh mesh file (.msh) in gmsh's binary encoding: the same content, read by gmsh and meshio, written about twice as fast on a city, and with exact coordinates (the text rounds them to 0.1 mm). The other mesh formats ignore it.</source>
-      <translation>Écrit le fichier de maillage gmsh (.msh) dans l'encodage binaire de gmsh : le même contenu, lu par gmsh et meshio, écrit environ deux fois plus vite sur une ville, avec les coordonnées exactes (le texte les arrondit à 0,1 mm). Les autres formats de maillage l'ignorent.</translation>
+      <source>Write the gmsh mesh file (.msh) in gmsh's binary encoding: the same content, read by gmsh and meshio, written faster on a city, and with exact coordinates (the text rounds them to 0.1 mm). The other mesh formats ignore it.</source>
+      <translation>Écrit le fichier de maillage gmsh (.msh) dans l'encodage binaire de gmsh : le même contenu, lu par gmsh et meshio, écrit plus vite sur une ville, avec les coordonnées exactes (le texte les arrondit à 0,1 mm). Les autres formats de maillage l'ignorent.</translation>
     </message>
     <message>
       <source>One feature per building block: its closed 3-D surface, with height, areas, volumes, mesh quality and distance to the data.</source>

@@ -289,7 +289,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         "SCHEDULER": "With tiles: the address of a running Dask scheduler (tcp://host:8786) whose workers have "
                      "urbanvox's core importable; overrides the worker count.",
         "MESH_BINARY": "Write the gmsh mesh file (.msh) in gmsh's binary encoding: the same content, read by "
-                       "gmsh and meshio, written about twice as fast on a city, and with exact coordinates "
+                       "gmsh and meshio, written faster on a city, and with exact coordinates "
                        "(the text rounds them to 0.1 mm). The other mesh formats ignore it.",
         "OUTPUT_BLOCKS": "One feature per building block: its closed 3-D surface, with height, areas, volumes, "
                          "mesh quality and distance to the data.",
