@@ -19,7 +19,7 @@ from . import jit
 from .heap import reusing_freed_memory
 from .surface import AIR_REGION, GROUND_REGION, SurfaceModel, rank_in
 from .topology import run_starts
-from .vectors import Vector, minus
+from .vectors import minus
 
 #: Viewer direction (from the scene towards the eye): south-west, 35 degrees up.
 _AZIMUTH, _ELEVATION = np.radians(-120.0), np.radians(35.0)
