@@ -44,9 +44,11 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     from matplotlib import cm
 
     eye, right, up = _view_axes()
-    block_tri, owner = _triangles(*model.block_faces())
-    ground_tri, _ = _triangles(model.interface(GROUND_REGION, AIR_REGION))
-    faces = np.concatenate([block_tri, ground_tri])
+    block_faces, owner = model.block_faces()
+    block_corners = _triangle_corners(block_faces)
+    ground_corners = _triangle_corners(model.interface(GROUND_REGION, AIR_REGION))
+    n_block = sum(len(part) for part in block_corners[0])  # the block triangles come first
+    owner = np.concatenate([owner] * len(block_corners[0]))
     # View coordinates (across, up, and depth towards the eye) of the nodes,
     # once: a rotation, so a face's normal there is its normal rotated, and
     # its depth component says whether it is turned to the viewer.
@@ -54,7 +56,9 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     view_nodes = model.nodes @ rotation
     # Each corner's coordinates gathered from contiguous columns.
     x, y, z = (np.ascontiguousarray(view_nodes[:, axis]) for axis in range(3))
-    a, b, c = (np.ascontiguousarray(corner) for corner in faces.T)
+    # Each corner's node column made once from the faces' columns (no (T, 3) table of triangles).
+    a, b, c = (np.concatenate(block_corners[k] + ground_corners[k]) for k in range(3))
+    del block_corners, ground_corners
     values = np.array(list(height_of_block.values()), dtype=np.float64)
     light = np.array([0.3, 0.5, 0.8]) @ rotation
 
@@ -66,7 +70,7 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
         e1, e2 = minus(corner[1], corner[0]), minus(corner[2], corner[0])
         towards_eye = e1[0] * e2[1] - e1[1] * e2[0]
         normal = np.column_stack([e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], towards_eye])
-        on_block = face < len(block_tri)
+        on_block = face < n_block
         block = owner[face[on_block]]
         rank = rank_in(block, list(height_of_block))
         heights = np.where(rank >= 0, values[rank], 0.0) if len(values) else np.zeros(len(block))
@@ -86,21 +90,22 @@ def _panel(ax, model: SurfaceModel, height_of_block: dict[int, float], vmax: flo
     ax.set_title(title)
 
 
-def _triangles(faces: np.ndarray, owner: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-    """Quads split along their fixed diagonal (triangles pass through), and
-    the owner of each triangle. Any split draws the same picture; the
-    meshes' best split costs a quality evaluation per quad.
+def _triangle_corners(faces: np.ndarray) -> list[list[np.ndarray]]:
+    """The node columns of the three corners of the triangles of ``faces``,
+    each in parts to concatenate: quads split along their fixed diagonal
+    0-2 (every first triangle, then every second), triangles as they are.
+    Any split draws the same picture; the meshes' best split costs a
+    quality evaluation per quad.
 
     Examples
     --------
-    >>> tri, owner = _triangles(np.array([[0, 1, 2, 3]]), np.array([7]))
-    >>> tri.tolist(), owner.tolist()
-    ([[0, 1, 2], [0, 2, 3]], [7, 7])
+    >>> corners = _triangle_corners(np.array([[0, 1, 2, 3], [4, 5, 6, 7]]))
+    >>> [np.concatenate(parts).tolist() for parts in corners]
+    [[0, 4, 0, 4], [1, 5, 2, 6], [2, 6, 3, 7]]
     """
     if faces.shape[1] == 3:
-        return faces, owner
-    return (np.concatenate([faces[:, :3], faces[:, [0, 2, 3]]]),
-            None if owner is None else np.concatenate([owner, owner]))
+        return [[faces[:, k]] for k in range(3)]
+    return [[faces[:, 0], faces[:, 0]], [faces[:, 1], faces[:, 2]], [faces[:, 2], faces[:, 3]]]
 
 
 def _rasterised(columns: tuple[np.ndarray, np.ndarray, np.ndarray], faces: tuple[np.ndarray, np.ndarray, np.ndarray],
