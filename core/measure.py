@@ -53,9 +53,8 @@ def block_face_split(model: SurfaceModel, nodes: np.ndarray) -> tuple[np.ndarray
     >>> len(diagonal), round(float(quality.min()), 4)
     (6, 0.7174)
     """
-    a, b = model.regions[:, 0], model.regions[:, 1]
     # take and compress: row gathers faster than indexing (core.vectors).
-    return best_diagonal_quality(nodes, model.quads.compress((a > 0) | (b > 0), axis=0))
+    return best_diagonal_quality(nodes, model.quads.compress(model.on_block(), axis=0))
 
 
 def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
@@ -95,8 +94,8 @@ def measure_blocks(model: SurfaceModel, nodes: np.ndarray, n_blocks: int,
     # them (on the model's orientation), without splitting the other faces;
     # the quality of each face as the block sees it (a face the model orients
     # into the block is judged reversed).
-    a, b = model.regions[:, 0], model.regions[:, 1]
-    block = np.flatnonzero((a > 0) | (b > 0))
+    a = model.regions[:, 0]
+    block = np.flatnonzero(model.on_block())
     # take and compress: row gathers faster than indexing (core.vectors).
     block_quads = model.quads.take(block, axis=0)
     diagonal, split_quality = split if split is not None else best_diagonal_quality(nodes, block_quads)

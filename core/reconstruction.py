@@ -112,8 +112,7 @@ class Reconstruction:
             ids = self.blocks.block_id
             lookup = np.full(int(ids.max()) + 2 if len(ids) else 1, -1, dtype=np.int64)
             lookup[ids] = np.arange(len(ids))
-            a, b = self.mesh.regions[:, 0], self.mesh.regions[:, 1]
-            faces, owner = self._layer_faces((a > 0) | (b > 0)).block_faces()
+            faces, owner = self._layer_faces(self.mesh.on_block()).block_faces()
             index = lookup[owner]
             order = np.argsort(index, kind="stable")
             # take: row gathers faster than indexing (core.vectors).
@@ -177,8 +176,7 @@ class Reconstruction:
         model = self.mesh if keep is None else self.mesh.selected(keep)
         if self.block_diagonal is None:
             return model.triangulated()
-        a, b = self.mesh.regions[:, 0], self.mesh.regions[:, 1]
-        block = (a > 0) | (b > 0)
+        block = self.mesh.on_block()
         on_block = block if keep is None else block[keep]
         diagonal = np.empty(len(model.quads), dtype=bool)
         diagonal[on_block] = self.block_diagonal if keep is None else self.block_diagonal[keep[block]]

@@ -207,6 +207,18 @@ class SurfaceModel:
         quads[inward] = quads.compress(inward, axis=0)[:, ::-1]
         return quads, side_region[entry].astype(np.int32)
 
+    def on_block(self) -> np.ndarray:
+        """Whether each face bounds a block (a region id above 0 on either side).
+
+        Examples
+        --------
+        >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (1, 1, 3))
+        >>> s = SurfaceModel.from_regions(g, np.array([GROUND_REGION, 1, AIR_REGION], np.int32).reshape(1, 1, 3))
+        >>> int(s.on_block().sum()), len(s.quads)
+        (6, 16)
+        """
+        return (self.regions[:, 0] > 0) | (self.regions[:, 1] > 0)
+
     def block_faces(self) -> tuple[np.ndarray, np.ndarray]:
         """Every face of every block, oriented out of it, and the block owning each.
 
