@@ -63,9 +63,8 @@ def encoded_rows(row_format: str, rows: np.ndarray) -> Iterator[bytes]:
     layout = _layout(row_format, rows)
     blocks = row_blocks(len(rows), _BLOCK)
     if layout is None:
-        line = row_format + "\n"
         for block in blocks:
-            yield (line * (block.stop - block.start) % tuple(rows[block].ravel().tolist())).encode("ascii")
+            yield by_operator(row_format, rows[block])
         return
     # Each row's text from its own row, the blocks on the threads ahead of the caller (core.parallel).
     yield from map_ahead(lambda block: _block_text(row_format, layout, rows[block], len(rows)), blocks)
@@ -77,8 +76,20 @@ def encoded_block(row_format: str, rows: np.ndarray, size: int | None = None) ->
     ``size`` rows in all, to choose the compiled code, :mod:`core.jit`)."""
     layout = _layout(row_format, rows)
     if layout is None:
-        return ((row_format + "\n") * len(rows) % tuple(rows.ravel().tolist())).encode("ascii")
+        return by_operator(row_format, rows)
     return _block_text(row_format, layout, rows, size)
+
+
+def by_operator(row_format: str, rows: np.ndarray) -> bytes:
+    """The ``%`` operator's text of ``rows`` (the reference, and the rows
+    the faster paths cannot vouch for), as ASCII bytes.
+
+    Examples
+    --------
+    >>> by_operator("%.4f %d", np.array([[0.03125, 7.0]]))
+    b'0.0312 7\\n'
+    """
+    return ((row_format + "\n") * len(rows) % tuple(rows.ravel().tolist())).encode("ascii")
 
 
 def _layout(row_format: str, rows: np.ndarray) -> tuple[list[bytes], list[int | None]] | None:
@@ -131,12 +142,11 @@ def _block_text(row_format: str, layout: tuple[list[bytes], list[int | None]], r
         return _laid_out(literals, fields)
     # Rare rows the operator formats: the block in runs between them.
     text, start = [], 0
-    line = row_format + "\n"
     for row in [*np.flatnonzero(~exact).tolist(), len(rows)]:
         if row > start:
             text.append(_laid_out(literals, [_rows_of(field, slice(start, row)) for field in fields]))
         if row < len(rows):
-            text.append((line % tuple(rows[row].tolist())).encode("ascii"))
+            text.append(by_operator(row_format, rows[row:row + 1]))
         start = row + 1
     return b"".join(text)
 

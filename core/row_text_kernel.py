@@ -68,10 +68,11 @@ def block_text(row_format: str, literals: list[bytes], decimals: list[int | None
     if not len(left):
         return out.tobytes()
     # The operator's text of the rows left, in their places.
-    line = row_format + "\n"
+    from .row_text import by_operator
+
     parts, start_at = [], 0
     for row, at in zip(left.tolist(), left_at.tolist()):
-        parts += [out[start_at:at].tobytes(), (line % tuple(rows[row].tolist())).encode("ascii")]
+        parts += [out[start_at:at].tobytes(), by_operator(row_format, rows[row:row + 1])]
         start_at = at
     parts.append(out[start_at:].tobytes())
     return b"".join(parts)
