@@ -65,11 +65,11 @@ def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray, binary
     offset : ndarray (3,)
         Added to the node coordinates (local -> world).
     binary : bool
-        Write a ``.msh`` in gmsh's binary encoding: the same content,
-        faster to write on a city (the 1 km city's: 1.6-2.1 s, 2.3-3.6 s as
-        text; the entity search is the same), and exact coordinates. The other formats have one encoding each
-        (PLY binary, VTU as meshio writes it, OBJ and STL text: a binary STL
-        cannot name its solids) and ignore it.
+        Write a ``.msh`` in gmsh's binary encoding: the same content, faster
+        to write on a city (the 1 km city's: 1.6-2.1 s, 2.3-3.6 s as text;
+        the entity search is the same), and exact coordinates. The other
+        formats have one encoding each (PLY binary, VTU as meshio writes it,
+        OBJ and STL text: a binary STL cannot name its solids) and ignore it.
     triangles : SurfaceModel, optional
         ``model.triangulated()``, when the caller has it.
     """

@@ -1,17 +1,19 @@
 """Compiled depth buffer of the preview (numba, :mod:`core.jit`).
 
-:func:`core.preview.nearest_triangles` samples every triangle of a panel
-and keeps each pixel's nearest sample with a sort of all the samples: on
-the 1 km synthetic city, 5 M triangles a panel, 2.4 s of the picture's 4.8
-s. Here each sample is made and tested against its pixel's nearest so far
-as it comes, the same numbers in the same order: the same triangle in every
-pixel.
+:func:`core.preview.nearest_faces` gathers the corners of the faces turned
+to the viewer, samples them and keeps each pixel's nearest sample with a
+sort of all the samples: on the 1 km synthetic city, 5 M triangles a panel,
+2.4 s of the sort alone in the picture's 4.8 s. Here passes over the faces
+find those turned to the viewer and their box, then make each sample and
+test it against its pixel's nearest so far as it comes: the same numbers in
+the same order, the same face in every pixel.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .neighbours_kernel import compiled
+from .projection_kernel import inlined
 from .preview import _R2_U, _R2_V, _SAMPLES_PER_PIXEL, picture_frame
 
 
@@ -54,8 +56,7 @@ def _facing_box(x, y, a, b, c):
     upper = np.array([-np.inf, -np.inf])
     found = False
     for t in range(len(a)):
-        xa, ya = x[a[t]], y[a[t]]
-        if (x[b[t]] - xa) * (y[c[t]] - ya) - (y[b[t]] - ya) * (x[c[t]] - xa) > 0:
+        if _turned_to_viewer(x[a[t]], y[a[t]], x[b[t]], y[b[t]], x[c[t]], y[c[t]]):
             found = True
             for node in (a[t], b[t], c[t]):
                 lower[0] = min(lower[0], x[node])
@@ -78,7 +79,7 @@ def _nearest_faces(x, y, z, a, b, c, left, bottom, scale, width, height):
             span = max(nearest_depth - deepest, 1e-300)
         for t in range(len(a)):
             xa, ya = x[a[t]], y[a[t]]
-            if not (x[b[t]] - xa) * (y[c[t]] - ya) - (y[b[t]] - ya) * (x[c[t]] - xa) > 0:
+            if not _turned_to_viewer(xa, ya, x[b[t]], y[b[t]], x[c[t]], y[c[t]]):
                 continue
             ox = (xa - left) * scale
             oy = (ya - bottom) * scale
@@ -111,3 +112,10 @@ def _nearest_faces(x, y, z, a, b, c, left, bottom, scale, width, height):
                     nearest[pixel] = t
                     behind_of[pixel] = behind
     return nearest
+
+
+@inlined
+def _turned_to_viewer(xa, ya, xb, yb, xc, yc):
+    """Whether the triangle a, b, c (view x and y) turns to the viewer: the
+    numpy twin's product, to the bit (scalars only: no reference counts)."""
+    return (xb - xa) * (yc - ya) - (yb - ya) * (xc - xa) > 0
