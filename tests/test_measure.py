@@ -32,10 +32,13 @@ def test_volumes_areas_and_node_distances_per_block(touching):
     assert len(shared) == (2 if touching else 0)
 
 
-def test_compiled_sums_are_numpys_to_the_last_bit(compiled, with_numpy):
+@pytest.mark.parametrize("threads", ["1", "3"])
+def test_compiled_sums_are_numpys_to_the_last_bit(compiled, with_numpy, monkeypatch, threads):
     """The per-block sums of core.measure_kernel against measure_blocks's numpy
     code, on random blocks (faces oriented out of and into their block, both
-    diagonals) with shaken nodes: the same volumes, areas and qualities, bit for bit."""
+    diagonals) with shaken nodes: the same volumes, areas and qualities, bit for
+    bit, whether one thread sums every block or three share them out."""
+    monkeypatch.setenv("URBANVOX_THREADS", threads)
     from core.blocks import label_blocks
     from core.classify import AIR
     from test_blocks_kernel import random_city
