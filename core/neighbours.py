@@ -22,7 +22,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import jit
-from .parallel import thread_count
+from .parallel import in_background, thread_count
 
 if TYPE_CHECKING:  # imports numba: only where a kernel runs (core.jit)
     from .neighbours_kernel import ColumnIndex
@@ -60,6 +60,26 @@ def point_index(data: np.ndarray, cell: float, tree: PointSearch | None = None) 
     if index is not None:
         return index
     return tree if tree is not None else search_tree(data)
+
+
+def search_of_first(search: PointSearch, data: np.ndarray, cell: float) -> PointSearch | Future:
+    """A search over ``data``, the first rows of the data ``search`` was made
+    over: from a compiled index, the same index without the other rows
+    (:meth:`core.neighbours_kernel.ColumnIndex.of_first`); else
+    :func:`point_index` of ``data``, made on a thread of its own (a future,
+    as :func:`nearest_distance` takes it).
+
+    Examples
+    --------
+    >>> data = np.array([[0.0, 0, 0], [1, 0, 0], [0.2, 0, 0]])
+    >>> first = search_of_first(point_index(data, 1.0), data[:2], 1.0)
+    >>> first = first.result() if isinstance(first, Future) else first
+    >>> nearest(first, data[:2], np.array([[0.3, 0, 0]]), 1)[1].tolist()
+    [[0]]
+    """
+    if isinstance(search, cKDTree):
+        return in_background(point_index, data, cell)
+    return search.of_first(data)
 
 
 def kd_tree(search: PointSearch, data: np.ndarray) -> cKDTree:

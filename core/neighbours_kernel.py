@@ -74,6 +74,42 @@ class ColumnIndex:
         """Points indexed (as ``cKDTree.n``)."""
         return len(self.data)
 
+    def of_first(self, data: np.ndarray) -> "ColumnIndex":
+        """The index of ``data``, the first ``len(data)`` of this index's
+        points (the same coordinates), made from this one without sorting
+        again: its columns without the other points, which keeps each
+        column's order by height.
+
+        It answers as an index made over ``data`` would: the searches find
+        the same points whatever the columns (see the module doc). The
+        pipeline's final distances search the ground points this way, from
+        the index the ground's projection made over them and the ground
+        levels under the roofs (the 1 km city: a copy of 0.05-0.1 s on one
+        core, where a new index took 0.18 s on both).
+
+        Examples
+        --------
+        >>> data = np.array([[0.2, 0.2, 0.0], [0.5, 0.5, 0.0], [0.3, 0.3, 1.0], [0.4, 0.4, -1.0]])
+        >>> ColumnIndex(data, 1.0).of_first(data[:2]).nearest(np.array([[0.4, 0.4, -1.0]]), 1)[1].tolist()
+        [[1]]
+        """
+        data = np.ascontiguousarray(data, dtype=np.float64)
+        if len(data) > len(self.data):
+            raise ValueError(f"{len(data)} points for an index of {len(self.data)}")
+        kept = self.order < len(data)
+        index = ColumnIndex.__new__(ColumnIndex)
+        index.data = data
+        index.x0, index.y0, index.cell, index.nx, index.ny = self.x0, self.y0, self.cell, self.nx, self.ny
+        # Where each column starts among the points kept: the points kept before it.
+        kept_before = np.zeros(len(kept) + 1, np.int64)
+        np.cumsum(kept, out=kept_before[1:])
+        index.start = kept_before.take(self.start)
+        del kept_before
+        index.order = self.order.compress(kept)
+        index.points = self.points.compress(kept, axis=1)
+        index.density = max(len(data), 1) / (max(int(np.count_nonzero(np.diff(index.start))), 1) * index.cell**2)
+        return index
+
     def nearest(self, at: np.ndarray, k: int, upper: float | np.ndarray = np.inf,
                 workers: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The ``k`` nearest data points of every point ``at`` (see the module

@@ -180,8 +180,8 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     tree = point_index(data, COLUMN_VOXELS * voxel_size, tree)
     target, stats["no_plane"] = _plane_targets(tree, data, p, normal, usable, max_distance * voxel_size,
                                                voxel_size, max_angle, is_cancelled)
-    # An index made here (the ground's: 200 MB on the 1 km city) is not held
-    # through the controls either.
+    # An index made here (200 MB for the ground of the 1 km city) is not held
+    # through the controls either; the caller's is its own to keep.
     del normal, size, tree
     proposal = nodes.copy()
     proposal[idx_nodes] = np.where(fixed_axes, p, target)

@@ -161,3 +161,26 @@ def test_points_sorted_by_column_then_height_in_their_order_on_every_core(kernel
     start = kernel.by_column(xyz, rows, 0.0, 0.0, 2.0, nx, ny, order)
     assert np.array_equal(order, expected)
     assert np.array_equal(start, np.concatenate([[0], np.cumsum(np.bincount(column, minlength=nx * ny))]))
+
+
+@pytest.mark.parametrize("k,upper", [(1, np.inf), (12, np.inf), (24, 1.5)])
+def test_index_of_the_first_points_answers_as_a_new_index(kernel, k, upper):
+    # The pipeline's ground points, then the ground levels under the roofs at
+    # column centres, beyond the ground points' extent: the index of the
+    # ground points taken from the index of both finds what an index made
+    # over the ground points alone finds (ties on a lattice, by index too).
+    rng = np.random.default_rng(k)
+    ground = np.round(rng.uniform(0, 30, (4000, 3)) * 4) / 4
+    under_roofs = np.column_stack([rng.uniform(-10, 40, 1500), rng.uniform(-10, 40, 1500), rng.uniform(0, 3, 1500)])
+    both_index = kernel.ColumnIndex(np.concatenate([ground, under_roofs]), 0.75)
+    first = both_index.of_first(ground)
+    assert (first.x0, first.y0) != tuple(ground[:, :2].min(axis=0))  # the other grid: not a copy of a new index
+    at = np.concatenate([ground[rng.integers(0, len(ground), 1500)] + rng.normal(scale=0.4, size=(1500, 3)),
+                         rng.uniform(-15, 45, (300, 3)) + [0, 0, 10]])
+    got = first.nearest(at, k, upper)
+    expected = kernel.ColumnIndex(ground, 0.75).nearest(at, k, upper)
+    assert np.array_equal(got[0], expected[0]) and np.array_equal(got[1], expected[1])
+    assert np.array_equal(got[0], brute_force(ground, at, k, upper)[0])
+    assert first.n == len(ground) and (got[1] <= len(ground)).all()
+    with pytest.raises(ValueError):
+        first.of_first(np.concatenate([ground, ground]))
