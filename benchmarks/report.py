@@ -47,6 +47,10 @@ def print_case(name: str, voxel: float, r: dict) -> None:
     if "runs" in r:
         print(f"  figures of the last of {len(r['runs'])} runs in one process; end to end (method) of each: "
               + ", ".join(f"{run['e2e_s']:.2f} ({run['pipeline_s']:.2f})" for run in r["runs"]) + " s")
+    if "e2e_cpu_s" in r:
+        cores = r["e2e_cpu_s"] / r["e2e_s"] if r["e2e_s"] > 0 else float("nan")
+        print(f"  end to end: {r['e2e_cpu_s']:.2f} s of CPU time over {r['e2e_s']:.2f} s, "
+              f"{cores:.2f} cores busy on average of the machine's {r.get('cpus', '?')}")
     print(f"  {'stage':<16} {'seconds':>8} {'rate':>9} {'per s':<7} {'peak RSS MB':>11}")
     for stage in STAGES:
         if stage not in r["stages"]:
