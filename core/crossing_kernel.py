@@ -36,7 +36,7 @@ import numpy as np
 
 from .errors import Cancelled
 from .neighbours_kernel import by_column, column_grid, column_range, compiled, length, maximum, minimum, rising_from
-from .parallel import map_blocks, row_blocks, thread_blocks
+from .parallel import balanced_blocks, map_blocks, row_blocks
 
 #: Quantile of the reach that splits the quads into the two tiers.
 _TIER_QUANTILE = 0.99
@@ -131,7 +131,7 @@ def face_balls(nodes: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.nda
     faces = np.ascontiguousarray(faces)
     centre = np.empty((len(faces), 3))
     reach = np.empty(len(faces))
-    map_blocks(lambda rows: _balls(nodes, faces, rows.start, rows.stop, centre, reach), thread_blocks(len(faces)))
+    map_blocks(lambda rows: _balls(nodes, faces, rows.start, rows.stop, centre, reach), balanced_blocks(len(faces)))
     return centre, reach
 
 
@@ -149,7 +149,7 @@ def triangle_boxes(nodes: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.n
     tri = np.ascontiguousarray(tri)
     lower = np.empty((3, len(tri)), dtype=np.float32)
     upper = np.empty((3, len(tri)), dtype=np.float32)
-    map_blocks(lambda rows: _boxes(nodes, tri, rows.start, rows.stop, lower, upper), thread_blocks(len(tri)))
+    map_blocks(lambda rows: _boxes(nodes, tri, rows.start, rows.stop, lower, upper), balanced_blocks(len(tri)))
     return lower, upper
 
 
@@ -218,7 +218,7 @@ def _bucket(members: np.ndarray, centre: np.ndarray, reach: np.ndarray, x0: floa
     order = np.empty(len(members), np.int64)
     start = by_column(centre, members, x0, y0, cell, nx, ny, order)
     ball = np.empty((4, len(order)))
-    map_blocks(lambda rows: _balls_by(order, centre, reach, rows.start, rows.stop, ball), thread_blocks(len(order)))
+    map_blocks(lambda rows: _balls_by(order, centre, reach, rows.start, rows.stop, ball), balanced_blocks(len(order)))
     return order, start, ball
 
 

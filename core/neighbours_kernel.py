@@ -22,7 +22,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from .parallel import map_blocks, thread_blocks
+from .parallel import balanced_blocks, map_blocks, thread_blocks
 
 #: Queries per call: blocks on all cores.
 _BLOCK = 1 << 15
@@ -326,7 +326,7 @@ def _bucket(data: np.ndarray, x0: float, y0: float, cell: float, nx: int, ny: in
     column starts and the points' coordinates in that order (3, P)."""
     start = by_column(data, np.empty(0, np.int64), x0, y0, cell, nx, ny, order)
     points = np.empty((3, len(order)))
-    map_blocks(lambda rows: _gathered_by(data, order, rows.start, rows.stop, points), thread_blocks(len(order)))
+    map_blocks(lambda rows: _gathered_by(data, order, rows.start, rows.stop, points), balanced_blocks(len(order)))
     return start, points
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import compiled, length, maximum
-from .parallel import map_blocks, thread_blocks
+from .parallel import balanced_blocks, map_blocks
 
 
 def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
@@ -37,7 +37,7 @@ def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
     def fill(rows: slice) -> None:
         _unit_quad_normals(nodes, quads, rows.start, rows.stop, unit)
 
-    map_blocks(fill, thread_blocks(len(quads)))
+    map_blocks(fill, balanced_blocks(len(quads)))
     normal = np.zeros((n, 3))
     _sum_into_nodes(quads, unit, normal)
     return normal
@@ -79,7 +79,7 @@ def outward_node_normals(nodes: np.ndarray, quads: np.ndarray, regions: np.ndarr
     unit = np.empty((len(quads), 3))  # rows of the faces summed only
     for faces in (first, second):
         map_blocks(lambda rows, faces=faces: _listed_unit_normals(nodes, quads, faces[rows], unit),
-                   thread_blocks(len(faces)))
+                   balanced_blocks(len(faces)))
     wanted = np.flatnonzero(select)
     slot = np.full(len(nodes), -1, dtype=np.int64)
     slot[wanted] = np.arange(len(wanted))

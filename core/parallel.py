@@ -35,6 +35,9 @@ _background: ThreadPoolExecutor | None = None
 _lock = threading.Lock()
 _DONE = object()
 
+#: Blocks per thread of :func:`balanced_blocks`, and the fewest rows of one.
+BALANCED_PER_THREAD, BALANCED_ROWS = 4, 1 << 15
+
 
 def thread_count() -> int:
     """Threads for row blocks: ``URBANVOX_THREADS`` if set, else the cores."""
@@ -155,6 +158,29 @@ def thread_blocks(n: int, most: int | None = None) -> list[slice]:
     """
     size = max(1, -(-n // thread_count()))
     return row_blocks(n, size if most is None else max(1, min(most, size)))
+
+
+def balanced_blocks(n: int) -> list[slice]:
+    """:func:`thread_blocks` cut finer: about :data:`BALANCED_PER_THREAD`
+    blocks per thread, but not under :data:`BALANCED_ROWS` rows (fewer rows:
+    as :func:`thread_blocks`, one block per thread). For compiled
+    loops over rows that each cost the same, and write only their own rows:
+    the threads do not always run alike (another thread's work, the cache),
+    and the one done first takes the next block from the pool's queue
+    instead of waiting for the other's half. On the 1 km city the quads'
+    split quality ran 0.27 s of its 1.05 s with one thread idle, in halves.
+
+    Examples
+    --------
+    >>> import os
+    >>> before = os.environ.get("URBANVOX_THREADS")
+    >>> os.environ["URBANVOX_THREADS"] = "2"
+    >>> len(balanced_blocks(1_000_000)), balanced_blocks(10) == thread_blocks(10)
+    (8, True)
+    >>> _ = os.environ.pop("URBANVOX_THREADS") if before is None else os.environ.update(URBANVOX_THREADS=before)
+    """
+    return thread_blocks(n, max(BALANCED_ROWS, -(-n // (BALANCED_PER_THREAD * thread_count()))))
+
 
 
 def counted_then_listed(run: Callable[[slice, np.ndarray, int], int], blocks: Sequence[slice]) -> np.ndarray:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import compiled, length, maximum, minimum
-from .parallel import map_blocks, thread_blocks
+from .parallel import balanced_blocks, map_blocks
 
 #: The normalisation of :func:`core.quality.triangle_quality` (an equilateral triangle scores 1).
 _SCALE = float(4 * np.sqrt(3))
@@ -60,7 +60,7 @@ def split_quality(nodes: np.ndarray, quads: np.ndarray,
     def fill(rows: slice) -> None:
         _fill(nodes, quads, rows.start, rows.stop, use_second, quality, normal, normals)
 
-    map_blocks(fill, thread_blocks(m))
+    map_blocks(fill, balanced_blocks(m))
     return use_second, quality, normal if normals else None
 
 

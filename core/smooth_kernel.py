@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import compiled
-from .parallel import map_blocks, thread_blocks
+from .parallel import balanced_blocks, map_blocks
 
 
 def step_into(target: np.ndarray, positions: np.ndarray, nodes: np.ndarray, which: np.ndarray,
@@ -67,7 +67,7 @@ def step_into(target: np.ndarray, positions: np.ndarray, nodes: np.ndarray, whic
     face_sum, edge_sum = map_blocks(lambda table: _summed(*table, size), (faces, edges))
     map_blocks(lambda rows: _combine(target, positions, nodes, which, face_sum, edge_sum, face_weight,
                                      edge_weight, own_weight, rows.start, rows.stop),
-               thread_blocks(size))
+               balanced_blocks(size))
     return target
 
 
@@ -77,7 +77,7 @@ def _centres_of(positions: np.ndarray, nodes: np.ndarray, corners: np.ndarray, p
     count = len(corners) // per
     centre = np.empty((count, 3))
     map_blocks(lambda rows: _centres(positions, nodes, corners, per, weight, rows.start, rows.stop, centre),
-               thread_blocks(count))
+               balanced_blocks(count))
     return centre
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .neighbours_kernel import compiled
-from .parallel import map_blocks, thread_blocks
+from .parallel import balanced_blocks, map_blocks
 
 
 def touching(marked: np.ndarray, faces: np.ndarray) -> np.ndarray:
@@ -27,7 +27,7 @@ def touching(marked: np.ndarray, faces: np.ndarray) -> np.ndarray:
     marked = np.ascontiguousarray(marked, dtype=np.bool_)
     faces = np.ascontiguousarray(faces)
     hit = np.empty(len(faces), dtype=np.bool_)
-    map_blocks(lambda rows: _touching(marked, faces, rows.start, rows.stop, hit), thread_blocks(len(faces)))
+    map_blocks(lambda rows: _touching(marked, faces, rows.start, rows.stop, hit), balanced_blocks(len(faces)))
     return hit
 
 
@@ -42,7 +42,7 @@ def changed_rows(new: np.ndarray, old: np.ndarray) -> np.ndarray:
     new = np.ascontiguousarray(new, dtype=np.float64)
     old = np.ascontiguousarray(old, dtype=np.float64)
     changed = np.empty(len(new), dtype=np.bool_)
-    map_blocks(lambda rows: _changed(new, old, rows.start, rows.stop, changed), thread_blocks(len(new)))
+    map_blocks(lambda rows: _changed(new, old, rows.start, rows.stop, changed), balanced_blocks(len(new)))
     return changed
 
 

@@ -62,19 +62,35 @@ def test_background_work_runs_on_its_own_thread_unless_one_thread_is_asked(monke
             in_background(lambda: 1 / 0).result()
 
 
-def test_the_pipeline_gives_the_same_model_with_one_thread_or_more(monkeypatch, district):
+def test_the_pipeline_gives_the_same_model_with_one_thread_or_more(monkeypatch, district, compiled):
     # The KD-trees are built in the background with threads, here without:
-    # the same nodes and blocks either way.
+    # the same nodes and blocks either way. With the kernels (loaded: they
+    # then run for any size), and on three threads with balanced blocks of
+    # 64 rows: the kernels that share rows out that way (each writes its own
+    # rows only) give the same model.
     from core.pipeline import ReconstructionParams, reconstruct_point_cloud
 
+    compiled("quality_kernel")
     results = []
-    for threads in ("1", "2"):
+    for threads, rows in (("1", parallel.BALANCED_ROWS), ("2", parallel.BALANCED_ROWS), ("3", 64)):
         monkeypatch.setenv("URBANVOX_THREADS", threads)
+        monkeypatch.setattr(parallel, "BALANCED_ROWS", rows)
         results.append(reconstruct_point_cloud(district.laz, crs=district.crs,
                                                params=ReconstructionParams(voxel_size=1.0)))
     assert len(results[0].blocks) > 20
-    assert np.array_equal(results[0].mesh.nodes, results[1].mesh.nodes)
-    assert results[0].block_rows() == results[1].block_rows()
+    for other in results[1:]:
+        assert np.array_equal(results[0].mesh.nodes, other.mesh.nodes)
+        assert results[0].block_rows() == other.block_rows()
+
+
+def test_balanced_blocks_cover_the_rows_once_in_order_a_few_per_thread(monkeypatch):
+    monkeypatch.setenv("URBANVOX_THREADS", "3")
+    blocks = parallel.balanced_blocks(1_000_003)
+    assert len(blocks) == 3 * parallel.BALANCED_PER_THREAD
+    assert blocks[0].start == 0 and blocks[-1].stop == 1_000_003
+    assert all(a.stop == b.start for a, b in zip(blocks, blocks[1:]))
+    # Small work: one block per thread, as thread_blocks.
+    assert parallel.balanced_blocks(1000) == parallel.thread_blocks(1000) and len(parallel.thread_blocks(1000)) == 3
 
 
 def test_a_pool_in_hand_still_runs_after_another_count_is_asked(monkeypatch):
