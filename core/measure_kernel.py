@@ -14,7 +14,8 @@ operations, so the sums are ``bincount``'s to the last bit.
 The blocks are shared out among the threads in ranges of about as many
 faces: each thread runs both passes over all the faces and sums those of
 its own blocks, each block's in the same order as one pass would. On the
-1 km synthetic city the sums ran on one core alone, 0.22-0.24 s.
+1 km synthetic city the sums ran on one core alone, 0.22-0.24 s; with them
+on both, the measures took 0.28-0.32 s instead of 0.36-0.51 s.
 """
 from __future__ import annotations
 

@@ -182,7 +182,6 @@ def balanced_blocks(n: int) -> list[slice]:
     return thread_blocks(n, max(BALANCED_ROWS, -(-n // (BALANCED_PER_THREAD * thread_count()))))
 
 
-
 def counted_then_listed(run: Callable[[slice, np.ndarray, int], int], blocks: Sequence[slice]) -> np.ndarray:
     """An int64 list made by a compiled pass over ``blocks`` run twice:
     ``run(block, out, at)`` returns how many entries its block has, writing
