@@ -244,29 +244,30 @@ def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.n
     ``tries`` closest to the line through it along its ``normal`` (ties by
     coordinates, :func:`_ranked`).
 
-    The nodes are taken ``_QUERY_ROWS`` at a time: the neighbour tables
-    (nodes x 24 indices, distances, distances to the line, their ranks) are
-    needed only to pick a few points per node, and on a city, all at once,
-    they took gigabytes. Each node's points depend on its own row only.
+    Through a compiled index, all the nodes in one pass that makes no such
+    tables (:func:`core.projection_kernel.candidates_near_lines`). Else the
+    nodes are taken ``_QUERY_ROWS`` at a time: the neighbour tables (nodes x
+    24 indices, distances, distances to the line, their ranks) are needed
+    only to pick a few points per node, and on a city, all at once, they
+    took gigabytes. Each node's points depend on its own row only.
 
     Returns
     -------
     ndarray of int (Q, min(tries, _NEAR, P))
         Data point indices; ``len(data)`` where there are fewer points.
     """
+    if not isinstance(tree, cKDTree):
+        # The same points from the compiled index, without the tables of
+        # nearest points (core.projection_kernel): all the nodes at once.
+        chosen = jit.run("projection_kernel", "candidates_near_lines", tree, p, normal, _NEAR, radius, tries, None,
+                         is_cancelled, size=len(p))
+        if chosen is not None:
+            return chosen
     k = min(_NEAR, len(data))
     candidates = np.empty((len(p), min(tries, k)), dtype=np.intp)
     for rows in row_blocks(len(p), _QUERY_ROWS):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        if not isinstance(tree, cKDTree):
-            # The same points from the compiled index, without the tables of
-            # nearest points (core.projection_kernel).
-            chosen = jit.run("projection_kernel", "candidates_near_lines", tree, p[rows], normal[rows], _NEAR,
-                             radius, tries, size=len(p))
-            if chosen is not None:
-                candidates[rows] = chosen
-                continue
         near = nearest(tree, data, p[rows], _NEAR, radius)[1]
         # The same points, one compiled pass per node (core.projection_kernel).
         chosen = jit.run("projection_kernel", "closest_to_lines", data, near, p[rows], normal[rows], tries,

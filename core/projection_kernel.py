@@ -19,9 +19,12 @@ time on 2 cores, the same points).
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import numba
 import numpy as np
 
+from .errors import Cancelled
 from .neighbours_kernel import BOX, before, column_range, compiled, length, rising_from
 from .parallel import map_blocks, thread_blocks
 
@@ -80,7 +83,8 @@ def closest_to_lines(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: 
 
 
 def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radius: float,
-                          tries: int, near: float | None = None) -> np.ndarray:
+                          tries: int, near: float | None = None,
+                          is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
     """The ``tries`` of the ``k`` nearest data points of each node within
     ``radius`` that lie closest to the line through it along its normal:
     ``closest_to_lines(index.data, index.nearest(p, k, radius)[1], p, normal, tries)``,
@@ -112,6 +116,12 @@ def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radi
         1 km city's ground). Where most nodes lately had too few inside it
         (walls, edges), the whole radius is searched from the start; the
         points chosen are the same either way.
+    is_cancelled : callable, optional
+        Checked before each block of nodes: :class:`core.errors.Cancelled`
+        is raised if it returns True. All the nodes may come in one call,
+        whose blocks the pool's threads take in turn: a call per batch of
+        nodes left a thread idle at the end of each (0.16 s on the 1 km city
+        in batches of 131 k nodes).
 
     Returns
     -------
@@ -141,6 +151,8 @@ def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radi
     near = min(float(radius), float(near))
 
     def fill(rows: slice) -> None:
+        if is_cancelled is not None and is_cancelled():
+            raise Cancelled()
         _near_lines(p, normal, rows.start, rows.stop, k, float(radius), near, index.x0, index.y0, index.cell,
                     index.nx, index.ny, index.order, index.start, index.points, out)
 

@@ -87,6 +87,28 @@ def test_fused_search_chooses_the_points_of_numpy_from_a_kd_tree(kernel):
         assert np.array_equal(got, expected), near
 
 
+def test_fused_search_stops_at_a_cancel_between_blocks(kernel, monkeypatch):
+    # All the nodes come in one call (core.project._candidates): its blocks
+    # check for a cancel, on the pool's threads or here. The first block
+    # passes the check, a later one is cancelled.
+    from core.errors import Cancelled
+    from core.neighbours_kernel import ColumnIndex
+
+    rng = np.random.default_rng(2)
+    data = np.column_stack([rng.uniform(0, 40, (20_000, 2)), rng.normal(0, 0.05, 20_000)])
+    p = data[rng.integers(0, len(data), 3 * kernel._BLOCK)] + [0, 0, 0.3]
+    normal = np.tile([0.0, 0, 1], (len(p), 1))
+    index = ColumnIndex(data, 1.5)
+    for threads in ("1", "2"):
+        monkeypatch.setenv("URBANVOX_THREADS", threads)
+        asked = []
+        with pytest.raises(Cancelled):
+            kernel.candidates_near_lines(index, p, normal, 24, 1.5, 3, None, lambda: asked.append(1) or len(asked) > 1)
+    found = kernel.candidates_near_lines(index, p, normal, 24, 1.5, 3, None, lambda: False)
+    assert np.array_equal(found, kernel.candidates_near_lines(index, p, normal, 24, 1.5, 3))
+    assert (found < len(data)).all()
+
+
 def test_fused_search_on_fewer_points_than_asked(kernel):
     from core.neighbours_kernel import ColumnIndex
 
