@@ -120,8 +120,8 @@ def candidates_near_lines(index, p: np.ndarray, normal: np.ndarray, k: int, radi
         Checked before each block of nodes: :class:`core.errors.Cancelled`
         is raised if it returns True. All the nodes may come in one call,
         whose blocks the pool's threads take in turn: a call per batch of
-        nodes left a thread idle at the end of each (0.16 s on the 1 km city
-        in batches of 131 k nodes).
+        nodes left a thread idle at the end of each (0.10-0.16 s on the 1 km
+        city in batches of 131 k nodes).
 
     Returns
     -------
