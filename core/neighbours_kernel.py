@@ -34,6 +34,9 @@ BOX = 1 + 1e-9
 #: How every kernel of core is compiled: cached on disk (core.jit), and without the GIL,
 #: so that blocks of rows run on the pool's threads (core.parallel).
 compiled = numba.njit(cache=True, nogil=True)
+#: As :data:`compiled`, and inlined where called: a call that passes arrays
+#: costs their reference counts, many times the work of a small helper.
+inlined = numba.njit(cache=True, nogil=True, inline="always")
 
 
 class ColumnIndex:

@@ -12,8 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .neighbours_kernel import compiled
-from .projection_kernel import inlined
+from .neighbours_kernel import compiled, inlined
 from .preview import _R2_U, _R2_V, _SAMPLES_PER_PIXEL, picture_frame
 
 

@@ -21,11 +21,10 @@ from __future__ import annotations
 
 from typing import Callable
 
-import numba
 import numpy as np
 
 from .errors import Cancelled
-from .neighbours_kernel import BOX, before, column_range, compiled, length, rising_from
+from .neighbours_kernel import BOX, before, column_range, compiled, inlined, length, rising_from
 from .parallel import map_blocks, thread_blocks
 
 #: Nodes per call of the fused search (blocks on all cores).
@@ -38,10 +37,6 @@ _NEAR_RADIUS = 1.2
 #: Share of the latest nodes (a decaying mean) with too few points inside the
 #: first radius above which the fused search takes the whole radius at once.
 _MOSTLY_MISSED = 0.25
-
-#: As neighbours_kernel.compiled, and inlined where called: a call that
-#: passes arrays costs their reference counts, many times the work here.
-inlined = numba.njit(cache=True, nogil=True, inline="always")
 
 
 def closest_to_lines(data: np.ndarray, near: np.ndarray, p: np.ndarray, normal: np.ndarray,

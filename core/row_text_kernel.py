@@ -21,6 +21,7 @@ import math
 import numpy as np
 
 from .neighbours_kernel import compiled
+from .row_text import by_operator
 
 #: ``2**52`` and ``2**-52``, as :func:`core.row_text._block_text` has them.
 _LARGEST = 4503599627370496.0
@@ -68,8 +69,6 @@ def block_text(row_format: str, literals: list[bytes], decimals: list[int | None
     if not len(left):
         return out.tobytes()
     # The operator's text of the rows left, in their places.
-    from .row_text import by_operator
-
     parts, start_at = [], 0
     for row, at in zip(left.tolist(), left_at.tolist()):
         parts += [out[start_at:at].tobytes(), by_operator(row_format, rows[row:row + 1])]
