@@ -229,22 +229,10 @@ def _fill_missing(z: np.ndarray, observed: np.ndarray) -> np.ndarray:
     missing = np.flatnonzero(~observed)
     if len(missing) == 0:
         return z
-    ny = z.shape[1]
-    mi, mj = np.divmod(missing, ny)
-    level = z.ravel()
-    total = np.zeros(len(missing))
-    weights = np.zeros(len(missing))
-    for di, dj in CHORD_DIRECTIONS:
-        behind = steps_to_observed(observed, di, dj).ravel().take(missing)
-        ahead = steps_to_observed(observed[::-1, ::-1], di, dj)[::-1, ::-1].ravel().take(missing)
-        chord = (behind > 0) & (ahead > 0)
-        b, a = behind[chord], ahead[chord]
-        ci, cj = mi[chord], mj[chord]
-        z_behind = level.take((ci - b * di) * ny + (cj - b * dj))
-        z_ahead = level.take((ci + a * di) * ny + (cj + a * dj))
-        w = (np.minimum(a, b) * float(np.hypot(di, dj))) ** -4.0
-        total[chord] += w * (z_behind + (z_ahead - z_behind) * (b / (a + b)))
-        weights[chord] += w
+    weight = chord_weights(observed.shape)
+    found = jit.run("ground_kernel", "chord_sums", observed, z.ravel(), np.array(CHORD_DIRECTIONS), weight,
+                    size=observed.size)
+    total, weights = found if found is not None else _chord_sums(z, observed, missing, weight)
     filled = z.copy()
     spanned = weights > 0
     filled.ravel()[missing[spanned]] = total[spanned] / weights[spanned]
@@ -254,6 +242,50 @@ def _fill_missing(z: np.ndarray, observed: np.ndarray) -> np.ndarray:
         alone = missing[~spanned]
         filled.ravel()[alone] = z[ni.ravel()[alone], nj.ravel()[alone]]
     return filled
+
+
+def chord_weights(shape: tuple[int, int]) -> np.ndarray:
+    """The weight of a chord along each of :data:`CHORD_DIRECTIONS` whose
+    nearer end is ``k`` steps away, at ``[d, k - 1]``: the inverse fourth
+    power of that distance in columns (``k`` up to the grid's longer side).
+
+    A table of them, so that numpy and :mod:`core.ground_kernel` take the
+    same numbers: numpy's ``power`` is not the C library's ``pow`` to the
+    last bit on every machine (this one's vector instructions).
+
+    Examples
+    --------
+    >>> chord_weights((3, 2))[0].tolist()  # along x: 1, 1/2^4, 1/3^4
+    [1.0, 0.0625, 0.012345679012345678]
+    """
+    steps = np.arange(1, max(shape) + 1)
+    return np.stack([(steps * float(np.hypot(di, dj))) ** -4.0 for di, dj in CHORD_DIRECTIONS])
+
+
+def _chord_sums(z: np.ndarray, observed: np.ndarray, missing: np.ndarray,
+                weight: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For the columns ``missing`` (``flatnonzero(~observed)``): the sum of
+    their chords' levels, each times its weight (:func:`chord_weights`),
+    and the sum of those weights; a direction at a time, each from the
+    steps :func:`steps_to_observed` finds (numpy's way; compiled in
+    :func:`core.ground_kernel.chord_sums`)."""
+    ny = z.shape[1]
+    mi, mj = np.divmod(missing, ny)
+    level = z.ravel()
+    total = np.zeros(len(missing))
+    weights = np.zeros(len(missing))
+    for d, (di, dj) in enumerate(CHORD_DIRECTIONS):
+        behind = steps_to_observed(observed, di, dj).ravel().take(missing)
+        ahead = steps_to_observed(observed[::-1, ::-1], di, dj)[::-1, ::-1].ravel().take(missing)
+        chord = (behind > 0) & (ahead > 0)
+        b, a = behind[chord], ahead[chord]
+        ci, cj = mi[chord], mj[chord]
+        z_behind = level.take((ci - b * di) * ny + (cj - b * dj))
+        z_ahead = level.take((ci + a * di) * ny + (cj + a * dj))
+        w = weight[d].take(np.minimum(a, b) - 1)
+        total[chord] += w * (z_behind + (z_ahead - z_behind) * (b / (a + b)))
+        weights[chord] += w
+    return total, weights
 
 
 def steps_to_observed(observed: np.ndarray, di: int, dj: int) -> np.ndarray:

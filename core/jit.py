@@ -3,7 +3,8 @@
 A few steps are loops that numpy can only write as chains of whole-array
 passes over large temporaries, or searches that a KD-tree answers more
 generally than city data need: the binning of points into voxels and
-columns (:mod:`core.grid_kernel`), the air under cover that the air front
+columns (:mod:`core.grid_kernel`), the chords of the ground under roofs
+(:mod:`core.ground_kernel`), the air under cover that the air front
 may miss (:mod:`core.classify_kernel`), the critical cubes of the well-composed
 repair (:mod:`core.manifold_kernel`), the labelling of the blocks and the
 passes over them (:mod:`core.blocks_kernel`), the crossing search of the projection
@@ -55,7 +56,7 @@ from .errors import Cancelled
 #: The reader's comes first: :func:`preload` loads them in this order while
 #: a file is read, and the reader uses its own once it is loaded.
 KERNELS = ("las_kernel", "blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel", "grid_kernel",
-           "manifold_kernel", "measure_kernel", "mls_kernel", "neighbours_kernel", "normals_kernel",
+           "ground_kernel", "manifold_kernel", "measure_kernel", "mls_kernel", "neighbours_kernel", "normals_kernel",
            "preview_kernel", "projection_kernel", "quality_kernel", "row_text_kernel", "smooth_kernel",
            "support_kernel", "surface_kernel", "tiles_kernel", "topology_kernel")
 
