@@ -27,7 +27,7 @@ import numpy as np
 
 from . import jit
 from .neighbours import PointSearch, nearest
-from .parallel import map_blocks, on_pool, row_blocks
+from .parallel import map_blocks, on_pool, row_blocks, take_rows
 from .vectors import cross
 
 #: Data points per plane.
@@ -247,7 +247,8 @@ class PlaneCache:
 
     def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centre, normal and flatness (as :func:`mls_planes`) of the planes at ``points`` (data indices)."""
-        missing = points.compress(self.slot.take(points) < 0)
+        # Gathers of rows scattered over tables of every data point: on all cores.
+        missing = points.compress(take_rows(self.slot, points) < 0)
         if len(missing):
             # The points not fitted yet, once each and ascending (as np.unique).
             wanted = np.zeros(len(self.data), dtype=bool)
@@ -259,5 +260,5 @@ class PlaneCache:
             self.centre = np.concatenate([self.centre, centre])
             self.normal = np.concatenate([self.normal, normal])
             self.flat = np.concatenate([self.flat, flat])
-        row = self.slot.take(points)
-        return self.centre.take(row, axis=0), self.normal.take(row, axis=0), self.flat.take(row)
+        row = take_rows(self.slot, points)
+        return take_rows(self.centre, row), take_rows(self.normal, row), take_rows(self.flat, row)

@@ -191,6 +191,36 @@ def balanced_blocks(n: int) -> list[slice]:
     return thread_blocks(n, max(BALANCED_ROWS, -(-n // (BALANCED_PER_THREAD * thread_count()))))
 
 
+#: Fewest rows :func:`take_rows` gathers on all cores (fewer: the pool's handoffs cost more).
+TAKE_ROWS_PARALLEL = 1 << 18
+
+
+def take_rows(array: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """``array.take(index, axis=0)``, in blocks of ``index`` on all cores for
+    a long one: numpy's gather runs without the GIL, and a gather of rows
+    scattered over a large table waits on memory, which two cores reach
+    faster than one (2 M random rows of a 3 M x 3 table: 62-75 -> 33-40 ms;
+    rows in order gain nothing and lose nothing). The same rows, and the
+    same error for an index out of range.
+
+    Examples
+    --------
+    >>> take_rows(np.arange(10.0).reshape(5, 2), np.array([4, 0])).tolist()
+    [[8.0, 9.0], [0.0, 1.0]]
+    """
+    if len(index) < TAKE_ROWS_PARALLEL or thread_count() <= 1:
+        return array.take(index, axis=0)
+    out = np.empty((len(index),) + array.shape[1:], dtype=array.dtype)
+
+    def gather(rows: slice) -> None:
+        # numpy's take into ``out=`` copies through a buffer when it checks
+        # the indices (its default): a block's own array, then copied, costs no more.
+        out[rows] = array.take(index[rows], axis=0)
+
+    map_blocks(gather, balanced_blocks(len(index)))
+    return out
+
+
 def counted_then_listed(run: Callable[[slice, np.ndarray, int], int], blocks: Sequence[slice]) -> np.ndarray:
     """An int64 list made by a compiled pass over ``blocks`` run twice:
     ``run(block, out, at)`` returns how many entries its block has, writing

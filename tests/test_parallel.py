@@ -130,3 +130,25 @@ def test_blocks_ahead_come_in_order_while_the_caller_works(monkeypatch):
     monkeypatch.setenv("URBANVOX_THREADS", "2")
     with pytest.raises(ZeroDivisionError):
         list(map_ahead(lambda n: 1 / (n - 5), range(10)))
+
+
+@pytest.mark.parametrize("threads", ["1", "3"])
+def test_rows_taken_on_all_cores_are_numpys(monkeypatch, threads):
+    """take_rows gathers the rows numpy's take gathers (tables of one and of
+    three columns, of floats, ints and booleans), in blocks on three
+    threads, and refuses an index out of range as numpy does."""
+    monkeypatch.setenv("URBANVOX_THREADS", threads)
+    monkeypatch.setattr(parallel, "TAKE_ROWS_PARALLEL", 1000)
+    monkeypatch.setattr(parallel, "BALANCED_ROWS", 700)
+    rng = np.random.default_rng(4)
+    index = rng.integers(0, 50_000, 20_001)
+    for table in (rng.normal(size=(50_000, 3)), rng.integers(-9, 9, 50_000).astype(np.int32),
+                  rng.random(50_000) < 0.5):
+        expected = table.take(index, axis=0)
+        got = parallel.take_rows(table, index)
+        assert got.dtype == expected.dtype and np.array_equal(got, expected)
+    if threads == "3":
+        assert len(parallel.balanced_blocks(len(index))) > 3
+    index[-5] = 50_000
+    with pytest.raises(IndexError):
+        parallel.take_rows(table, index)
