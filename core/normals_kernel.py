@@ -75,7 +75,11 @@ def outward_node_normals(nodes: np.ndarray, quads: np.ndarray, regions: np.ndarr
     regions = np.ascontiguousarray(regions)
     block = np.ascontiguousarray(select & on_block)
     ground = np.ascontiguousarray(select & ~on_block)
-    first, second = _outward_faces(quads, regions, block, ground, int(ground_region))
+    # Each thread lists its block of quads; the lists joined in block order are one pass's.
+    parts = map_blocks(lambda rows: _outward_faces(quads, regions, block, ground, int(ground_region), rows.start,
+                                                   rows.stop), balanced_blocks(len(quads)))
+    first, second = (parts[0] if len(parts) == 1 else
+                     (np.concatenate([part[0] for part in parts]), np.concatenate([part[1] for part in parts])))
     unit = np.empty((len(quads), 3))  # rows of the faces summed only
     for faces in (first, second):
         map_blocks(lambda rows, faces=faces: _listed_unit_normals(nodes, quads, faces[rows], unit),
@@ -88,7 +92,7 @@ def outward_node_normals(nodes: np.ndarray, quads: np.ndarray, regions: np.ndarr
     map_blocks(lambda columns: _outward_columns(quads, regions, unit, block, ground, int(ground_region), first,
                                                 second, columns, slot, sums), (np.arange(2), np.arange(2, 4)))
     normal = np.zeros((len(nodes), 3))
-    _outward_total(sums, wanted, normal)
+    map_blocks(lambda rows: _outward_total(sums, wanted, normal, rows.start, rows.stop), balanced_blocks(len(wanted)))
     return normal
 
 
@@ -180,14 +184,15 @@ def _flush_column(quads, k, sums, normal):
 
 
 @compiled
-def _outward_faces(quads, regions, block, ground, ground_region):
-    """The faces :func:`outward_node_normals` sums, in the order it sums
-    them: first those with a block on side 0 or the ground on either side,
-    then those with a block on side 1; only those with a wanted corner."""
-    first = np.empty(len(quads), np.int64)
-    second = np.empty(len(quads), np.int64)
+def _outward_faces(quads, regions, block, ground, ground_region, start, stop):
+    """The faces of ``start:stop`` that :func:`outward_node_normals` sums, in
+    the order it sums them: first those with a block on side 0 or the ground
+    on either side, then those with a block on side 1; only those with a
+    wanted corner."""
+    first = np.empty(stop - start, np.int64)
+    second = np.empty(stop - start, np.int64)
     n_first = n_second = 0
-    for m in range(len(quads)):
+    for m in range(start, stop):
         a, b = regions[m, 0], regions[m, 1]
         to_block = to_ground = False
         for k in range(4):
@@ -234,10 +239,10 @@ def _add_unit(sums, k, w, unit, m, sign):
 
 
 @compiled
-def _outward_total(sums, wanted, normal):
+def _outward_total(sums, wanted, normal, start, stop):
     """The columns' sums added as :func:`_sum_into_nodes` adds them, made a
-    unit vector (zero where zero) at each ``wanted`` node of ``normal``."""
-    for w in range(len(wanted)):
+    unit vector (zero where zero) at the ``wanted[start:stop]`` nodes of ``normal``."""
+    for w in range(start, stop):
         x = ((sums[0, w, 0] + sums[1, w, 0]) + sums[2, w, 0]) + sums[3, w, 0]
         y = ((sums[0, w, 1] + sums[1, w, 1]) + sums[2, w, 1]) + sums[3, w, 1]
         z = ((sums[0, w, 2] + sums[1, w, 2]) + sums[2, w, 2]) + sums[3, w, 2]

@@ -28,11 +28,15 @@ def test_node_normals_are_numpys_to_the_last_bit(monkeypatch, kernel, dtype):
     assert not got[25_000:].any() and np.allclose(np.linalg.norm(got[100:25_000], axis=1), 1.0)
 
 
+@pytest.mark.parametrize("threads", ["1", "3"])
 @pytest.mark.parametrize("dtype", [np.int64, np.int32])
-def test_outward_normals_are_numpys_to_the_last_bit(monkeypatch, kernel, dtype):
+def test_outward_normals_are_numpys_to_the_last_bit(monkeypatch, kernel, dtype, threads):
     """Blocks on the ground, one on another's roof, one touching another by
     an edge, a pit in the ground, in a box: each selected node's normal out of
-    its block, else out of the ground, as numpy's sums on the gathered faces."""
+    its block, else out of the ground, as numpy's sums on the gathered faces;
+    on one thread, and on three in blocks of 64 rows (the faces listed by
+    blocks and joined, the totals made by blocks)."""
+    from core import parallel
     from core.grid import VoxelGrid
     from core.project import outward_normals
     from core.smooth import NodeRoles
@@ -49,6 +53,9 @@ def test_outward_normals_are_numpys_to_the_last_bit(monkeypatch, kernel, dtype):
     model = SurfaceModel.from_regions(VoxelGrid(np.zeros(3), np.zeros(3), 1.0, regions.shape), regions)
     model = SurfaceModel(nodes=model.nodes, quads=model.quads.astype(dtype), regions=model.regions)
     roles = NodeRoles.of(model, np.zeros(3), np.asarray(regions.shape, float))
+    monkeypatch.setenv("URBANVOX_THREADS", threads)
+    monkeypatch.setattr(parallel, "BALANCED_ROWS", 64)
+    assert len(parallel.balanced_blocks(len(model.quads))) >= 4
     nodes = model.nodes + rng.normal(scale=0.15, size=model.nodes.shape)
     nodes[::7] = model.nodes[::7]  # flat patches: zero components, whose signs must match too
     for select in (rng.random(len(nodes)) < 0.6, np.ones(len(nodes), bool), roles.on_block, ~roles.on_block):
