@@ -19,6 +19,7 @@ from .grid import VoxelGrid
 from .heap import reusing_freed_memory
 from .measure import BlockMeasures
 from .surface import SurfaceModel
+from .topology import stable_order
 
 
 @dataclass
@@ -114,11 +115,11 @@ class Reconstruction:
             lookup[ids] = np.arange(len(ids))
             faces, owner = self._layer_faces(self.mesh.on_block()).block_faces()
             index = lookup[owner]
-            order = np.argsort(index, kind="stable")
+            order = stable_order(index, len(ids))
             # take: row gathers faster than indexing (core.vectors).
             faces, index = faces.take(order, axis=0), index[order]
             del owner, order, lookup  # not held while the layer is written
-            yield from multipolygons_z(self.grid.to_world(self.mesh.nodes), faces, index, len(ids))
+            yield from multipolygons_z(self.mesh.nodes, faces, index, len(ids), offset=self.grid.offset)
 
     def ground_surface_wkb(self, tile: int = 64) -> Iterator[bytes]:
         """The terrain (ground/air faces) as MultiPolygonZ WKB, one per tile of
@@ -134,7 +135,6 @@ class Reconstruction:
             faces = model.interface(GROUND_REGION, AIR_REGION)
             if len(faces) == 0:
                 return
-            nodes = self.grid.to_world(model.nodes)
             # Each face's centre in x and y, its corners summed in order as a
             # mean over them sums them: no (F, k, 3) table of its corners.
             centre = np.empty((len(faces), 2))
@@ -145,11 +145,11 @@ class Reconstruction:
                     total += coordinate.take(faces[:, corner])
                 centre[:, axis] = total / faces.shape[1]
             key = np.floor((centre - self.grid.origin[:2]) / (tile * self.grid.voxel_size)).astype(np.int64)
-            index = unique_pairs(key)[1]
-            order = np.argsort(index, kind="stable")
+            tiles, index = unique_pairs(key)
+            order = stable_order(index, len(tiles))
             faces, index = faces.take(order, axis=0), index[order]
             del centre, key, order  # not held while the layer is written
-            yield from multipolygons_z(nodes, faces, index, int(index[-1]) + 1)
+            yield from multipolygons_z(model.nodes, faces, index, len(tiles), offset=self.grid.offset)
 
     def _layer_faces(self, keep: np.ndarray) -> SurfaceModel:
         """The faces ``keep`` of ``mesh`` as the layers draw them: its quads

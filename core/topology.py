@@ -73,6 +73,23 @@ def sorted_unique(values: np.ndarray, return_inverse: bool = False):
     return ordered[first], inverse
 
 
+def stable_order(key: np.ndarray, n_keys: int) -> np.ndarray:
+    """``np.argsort(key, kind="stable")`` of integer keys ``0..n_keys-1``.
+
+    Keys that fit in 16 bits are sorted as such: numpy's stable sort of
+    16-bit integers is a radix sort, where wider ones are merged (the 1 km
+    city's 3.6 M block triangles by block: 0.085 -> 0.025 s). The same order.
+
+    Examples
+    --------
+    >>> stable_order(np.array([2, 0, 2, 1, 0]), 3).tolist()
+    [1, 4, 3, 0, 2]
+    """
+    if n_keys <= 1 << 16:
+        key = key.astype(np.uint16)
+    return np.argsort(key, kind="stable")
+
+
 def dense_unique(values: np.ndarray, return_inverse: bool = False):
     """``np.unique(values, return_inverse=...)`` of integers of a small range
     (region ids, region pairs): a mark per value of the range and a running

@@ -29,7 +29,8 @@ _POLYGON, _MULTIPOLYGON = 3, 6
 CHUNK_FACES = 65536
 
 
-def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_groups: int) -> Iterator[bytes]:
+def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_groups: int,
+                    offset: np.ndarray | None = None) -> Iterator[bytes]:
     """WKB of ``n_groups`` MultiPolygonZ, group ``g`` made of the faces
     ``group == g``, one after the other.
 
@@ -48,6 +49,11 @@ def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_g
     group : ndarray of int (F,)
         The multipolygon of each face, ascending.
     n_groups : int
+    offset : ndarray (3,), optional
+        Added to the coordinates of the faces' corners as the chunks gather
+        them, on the threads: world coordinates from a grid's local nodes,
+        without a copy of every node on one core first (the 1 km city's
+        4.8 M nodes: 0.05-0.07 s for each layer). The same numbers.
 
     Yields
     ------
@@ -88,6 +94,8 @@ def multipolygons_z(nodes: np.ndarray, faces: np.ndarray, group: np.ndarray, n_g
         xyz = np.empty((len(faces_of), k + 1, 3))
         for corner in range(k):
             xyz[:, corner] = nodes.take(faces_of[:, corner], axis=0)  # take: faster rows (core.vectors)
+        if offset is not None:
+            xyz[:, :k] += offset
         xyz[:, k] = xyz[:, 0]
         records = np.empty((len(faces_of), size), np.uint8)
         records[:, :prefix.size] = prefix

@@ -52,3 +52,14 @@ def test_large_selections_run_compiled(monkeypatch, kernel):
     faces = np.tile(np.array([[0, 1, 2, 3], [4, 5, 6, 7]]), (topology._KERNEL_ROWS, 1))
     hit = topology.touching(marked, faces)
     assert calls and hit[0::2].all() and not hit[1::2].any()
+
+
+@pytest.mark.parametrize("n_keys", [1, 300, 1 << 16, (1 << 16) + 1, 10**6])
+def test_stable_order_is_numpys_stable_argsort(n_keys):
+    """Keys of 16 bits (numpy's radix sort) and wider ones: the order of a
+    stable argsort of the keys as given, ties in their first order."""
+    rng = np.random.default_rng(n_keys)
+    key = rng.integers(0, n_keys, 200_000)
+    key[:10] = n_keys - 1  # the largest key, which 16 bits must hold
+    order = topology.stable_order(key, n_keys)
+    assert np.array_equal(order, np.argsort(key, kind="stable"))

@@ -32,6 +32,11 @@ def test_groups_across_chunks_are_shapelys_bytes(monkeypatch, corners, chunk):
     starts = np.concatenate([[0], np.cumsum(sizes)])
     wanted = [expected(nodes, faces[starts[g]:starts[g + 1]]) for g in range(len(sizes))]
     assert list(made) == wanted
+    # Local nodes and the offset added as the chunks gather them: the same bytes.
+    offset = np.array([5e5, 6e6, 0.0])
+    local = nodes - offset
+    wanted = [expected(local + offset, faces[starts[g]:starts[g + 1]]) for g in range(len(sizes))]
+    assert list(multipolygons_z(local, faces, group, len(sizes), offset=offset)) == wanted
 
 
 def test_nothing_to_write_makes_nothing():
