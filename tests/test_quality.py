@@ -47,3 +47,19 @@ def test_a_face_state_handed_on_changes_nothing():
         with_state, kept_too = accept_moves(with_state, given_up, quads, 0.2, state=state, overwrite_new=True)
         assert with_state is given_up  # the moves undone in the caller's array
         assert np.array_equal(plain, with_state) and np.array_equal(kept, kept_too)
+
+
+def test_split_along_gives_each_quads_two_triangles_in_blocks(monkeypatch):
+    """100 k quads (blocks of rows on three threads): quad m's triangles are
+    rows 2m and 2m + 1, (0, 1, 2) and (0, 2, 3) or (1, 2, 3) and (1, 3, 0)."""
+    from core.quality import split_along
+
+    monkeypatch.setenv("URBANVOX_THREADS", "3")
+    rng = np.random.default_rng(8)
+    quads = rng.integers(0, 10**6, (100_003, 4)).astype(np.int32)
+    use_second = rng.random(len(quads)) < 0.5
+    triangles = split_along(quads, use_second, dtype=np.int64)
+    first = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]], axis=1)
+    second = np.concatenate([quads[:, [1, 2, 3]], quads[:, [1, 3, 0]]], axis=1)
+    wanted = np.where(use_second[:, None], second, first).reshape(-1, 3)
+    assert triangles.dtype == np.int64 and np.array_equal(triangles, wanted)
