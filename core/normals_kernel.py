@@ -78,8 +78,10 @@ def outward_node_normals(nodes: np.ndarray, quads: np.ndarray, regions: np.ndarr
     # Each thread lists its block of quads; the lists joined in block order are one pass's.
     parts = map_blocks(lambda rows: _outward_faces(quads, regions, block, ground, int(ground_region), rows.start,
                                                    rows.stop), balanced_blocks(len(quads)))
-    first, second = (parts[0] if len(parts) == 1 else
-                     (np.concatenate([part[0] for part in parts]), np.concatenate([part[1] for part in parts])))
+    if len(parts) == 1:
+        first, second = parts[0]
+    else:  # several blocks, or none (no quads)
+        first, second = (np.concatenate([np.empty(0, np.int64)] + [part[side] for part in parts]) for side in (0, 1))
     unit = np.empty((len(quads), 3))  # rows of the faces summed only
     for faces in (first, second):
         map_blocks(lambda rows, faces=faces: _listed_unit_normals(nodes, quads, faces[rows], unit),
