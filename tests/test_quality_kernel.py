@@ -41,6 +41,24 @@ def test_same_splits_qualities_and_normals_as_numpy(monkeypatch, kernel, dtype):
         assert without[2] is None and np.array_equal(without[1], got[1], equal_nan=True)
 
 
+@pytest.mark.parametrize("threads", ["1", "3"])
+def test_qualities_written_into_their_rows_are_numpys(monkeypatch, kernel, threads):
+    """split_quality_into against numpy's rows of the same quads (awkward
+    ones, NaN included), written into tables that keep their other rows."""
+    monkeypatch.setenv("URBANVOX_THREADS", threads)
+    rng = np.random.default_rng(6)
+    for nodes in awkward_nodes(rng):
+        quads = rng.integers(0, len(nodes), size=(60_000, 4)).astype(np.int32)
+        rows = np.flatnonzero(rng.random(len(quads)) < 0.7)
+        expected = numpy_split_quality(monkeypatch, nodes, quads)
+        quality_of, normal = np.full(len(quads), -7.0), np.full((len(quads), 3), -7.0)
+        assert kernel.split_quality_into(nodes, quads, rows, quality_of, normal) == len(rows)
+        assert np.array_equal(quality_of[rows], expected[1][rows], equal_nan=True)
+        assert np.array_equal(normal[rows], expected[2][rows], equal_nan=True)
+        others = np.setdiff1d(np.arange(len(quads)), rows)
+        assert (quality_of[others] == -7).all() and (normal[others] == -7).all()
+
+
 def test_the_quality_control_uses_the_kernel_with_the_same_moves(monkeypatch, kernel):
     # accept_moves through the kernel (loaded: it runs for any size) and through numpy.
     rng = np.random.default_rng(4)
