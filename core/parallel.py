@@ -53,7 +53,7 @@ def thread_count() -> int:
 def _cores() -> int:
     """The machine's cores, asked once: ``os.cpu_count`` reads a file of the
     system at each call (14 us here), and the pipeline asks for the threads
-    some 600 times on Delft, 2,000 on the 1 km city."""
+    some 600 times a run on Delft, 1,000 on the 1 km city."""
     return os.cpu_count() or 1
 
 
