@@ -200,14 +200,30 @@ class VoxelGrid:
         number = np.flatnonzero(self.occupancy(points, chunk).ravel(order="F"))
         return np.column_stack([number % nx, (number // nx) % ny, number // (nx * ny)])
 
-    def node_xyz(self, ijk: np.ndarray) -> np.ndarray:
-        """Local coordinates of lattice nodes (voxel corners) ``ijk`` (N, 3).
+    def node_xyz(self, number: np.ndarray, nx1: int, ny1: int) -> np.ndarray:
+        """Local coordinates (N, 3) of lattice nodes (voxel corners) given by
+        their flat numbers ``i + nx1 (j + ny1 k)``, on a lattice ``nx1`` by
+        ``ny1`` nodes across (as :func:`core.surface.faces_between` numbers
+        them): ``origin + (i, j, k) * voxel_size``.
 
-        In blocks of rows on all cores, each as one pass would make it (the
-        1 km city's 2.3 M nodes: 0.08 s on one core)."""
-        xyz = np.empty(np.shape(ijk), dtype=np.float64)
-        map_blocks(lambda rows: np.add(self.origin, ijk[rows] * self.voxel_size, out=xyz[rows]),
-                   balanced_blocks(len(xyz)))
+        In blocks of rows on all cores, each as one pass makes it, without a
+        table of every node's (i, j, k) (the 1 km city's 2.3 M surface nodes:
+        0.13 s and 55 MB of (i, j, k) on one core).
+
+        Examples
+        --------
+        >>> grid = VoxelGrid(np.zeros(3), np.array([10.0, 0, 0]), 0.5, (2, 1, 1))  # 3 x 2 x 2 nodes
+        >>> grid.node_xyz(np.array([0, 4, 11]), 3, 2).tolist()  # (0, 0, 0), (1, 1, 0), (2, 1, 1)
+        [[10.0, 0.0, 0.0], [10.5, 0.5, 0.0], [11.0, 0.5, 0.5]]
+        """
+        xyz = np.empty((len(number), 3), dtype=np.float64)
+
+        def fill(rows: slice) -> None:
+            part = number[rows]
+            ijk = np.column_stack([part % nx1, (part // nx1) % ny1, part // (nx1 * ny1)])
+            np.add(self.origin, ijk * self.voxel_size, out=xyz[rows])
+
+        map_blocks(fill, balanced_blocks(len(xyz)))
         return xyz
 
     def column_centres(self) -> tuple[np.ndarray, np.ndarray]:

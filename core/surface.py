@@ -107,8 +107,8 @@ class SurfaceModel:
         flat, pairs = faces_between(regions)
         used, inverse = unique_nodes(flat, nx1 * ny1 * nz1)
         del flat
-        ijk = np.column_stack([used % nx1, (used // nx1) % ny1, used // (nx1 * ny1)])
-        return cls(nodes=grid.node_xyz(ijk), quads=inverse.reshape(-1, 4).astype(np.int64), regions=pairs)
+        return cls(nodes=grid.node_xyz(used, int(nx1), int(ny1)), quads=inverse.reshape(-1, 4).astype(np.int64),
+                   regions=pairs)
 
     def triangulated(self, diagonal: np.ndarray | None = None) -> "SurfaceModel":
         """The same model with every quad split into its two best triangles.
