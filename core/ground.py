@@ -208,10 +208,10 @@ def _fill_missing(z: np.ndarray, observed: np.ndarray) -> np.ndarray:
     on a lattice, degenerate for qhull) and 5.7 s on the 2 km one; the
     chords took 0.13-0.19 s on the 1 km city in numpy then (0.37-0.58 s on
     other days), and take 0.04 s compiled (:mod:`core.ground_kernel`).
-    Both guess the same thing, the
-    ground under a roof, about equally well: the file's own roof gaps laid
-    over its observed ground elsewhere (six shifts; the observed levels as
-    the truth) are filled with a mean error of 0.087 m (chords) against
+    Both guess the same thing, the ground under a roof, about equally well:
+    the file's own roof gaps laid over its observed ground elsewhere (six
+    shifts; the observed levels as the truth) are filled with a mean error
+    of 0.087 m (chords) against
     0.085 m (triangulation) on Delft at 0.5 m, 0.053 against 0.050 m on
     Montpellier at 1 m, 0.078 against 0.068 m on Saint-Barthelemy at 0.5 m
     and 0.109 against 0.117 m on the hilly Jura village at 0.5 m
