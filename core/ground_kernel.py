@@ -7,14 +7,14 @@ behind it to the nearest ahead. numpy finds those steps with
 row a few vectorised passes, sixteen times (each direction, forwards and
 backwards), then the steps of the missing columns taken from each grid.
 
-Here each of the sixteen walks is one compiled pass over the grid with
-the same recurrence (a column's steps are those of the column one step
-back, plus one, or 0 on an observed column), holding only the rows one
-step back and writing only the missing columns' steps; the walks run on
-all cores. Then each missing column sums its chords, the directions in
-numpy's order with numpy's operations, each chord's weight from the same
-table (:func:`core.ground.chord_weights`): the sums are numpy's to the last
-bit. The 1 km synthetic city's 1 M columns, 259 k of them missing: 0.04 s on
+Here each walk is one compiled pass over the grid with the same
+recurrence (a column's steps are those of the column one step back, plus
+one, or 0 on an observed column), holding only the rows one step back and
+writing only the missing columns' steps; a direction's two walks run on two
+threads. Then its chords are added into each missing column's sums, on all
+cores, with numpy's operations, the directions in numpy's order and each
+chord's weight from the same table (:func:`core.ground.chord_weights`): the
+sums are numpy's to the last bit. The 1 km synthetic city's 1 M columns, 259 k of them missing: 0.04 s on
 both cores, where numpy's steps and sums took 0.48-0.58 s on one (the same
 hour; 0.37 s in a run of the pipeline on another day).
 """
@@ -32,13 +32,19 @@ def chord_sums(observed: np.ndarray, level: np.ndarray, directions: np.ndarray,
     of its chords' levels times their weights, and the sum of the weights,
     as :func:`core.ground._chord_sums`.
 
+    A direction at a time, as numpy adds them: its two walks
+    (:func:`walk_steps`), then its chords added into every column's sums
+    in blocks. Only one direction's steps are held (8 bytes a missing
+    column; all sixteen walks at once held 64, 320 MB for a 2 km city at
+    0.5 m), and each column's sums add the directions in numpy's order.
+
     Parameters
     ----------
     observed : ndarray of bool (nx, ny)
     level : ndarray (nx ny,)
         The columns' levels (those of the observed ones are read).
     directions : ndarray of int (D, 2)
-        As for :func:`chord_steps`.
+        As for :func:`walk_steps`.
     weight : ndarray (D, K)
         A chord's weight by direction and by the steps to its nearer end,
         less one (:func:`core.ground.chord_weights`).
@@ -59,30 +65,34 @@ def chord_sums(observed: np.ndarray, level: np.ndarray, directions: np.ndarray,
     """
     observed = np.ascontiguousarray(observed, dtype=np.bool_)
     directions = np.ascontiguousarray(directions, dtype=np.int64)
-    behind, ahead = chord_steps(observed, directions)
     missing = np.flatnonzero(~observed.ravel())
     level = np.ascontiguousarray(level, dtype=np.float64)
     weight = np.ascontiguousarray(weight, dtype=np.float64)
-    total = np.empty(len(missing))
-    weights = np.empty(len(missing))
-    map_blocks(lambda rows: _sums(behind, ahead, missing, level, observed.shape[1], directions, weight,
-                                  rows.start, rows.stop, total, weights), balanced_blocks(len(missing)))
+    total = np.zeros(len(missing))
+    weights = np.zeros(len(missing))
+    blocks = balanced_blocks(len(missing))
+    for d in range(len(directions)):
+        di, dj = int(directions[d, 0]), int(directions[d, 1])
+        behind, ahead = walk_steps(observed, di, dj)
+        map_blocks(lambda rows: _add_chords(behind, ahead, missing, level, observed.shape[1], di, dj, weight[d],
+                                            rows.start, rows.stop, total, weights), blocks)
     return total, weights
 
 
-def chord_steps(observed: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def walk_steps(observed: np.ndarray, di: int, dj: int) -> tuple[np.ndarray, np.ndarray]:
     """Steps from every unobserved column to the nearest observed column
-    behind it and ahead of it, along each direction.
+    behind it and ahead of it along ``(di, dj)``: the direction's two walks,
+    one on each of two threads.
 
     Parameters
     ----------
     observed : ndarray of bool (nx, ny)
-    directions : ndarray of int (D, 2)
-        Steps (di, dj), ``di`` 0 to 2; ``dj`` positive where ``di`` is 0.
+    di, dj : int
+        The step: ``di`` 0 to 2; ``dj`` positive where ``di`` is 0.
 
     Returns
     -------
-    behind, ahead : ndarray of int32 (D, M)
+    behind, ahead : ndarray of int32 (M,)
         For the M unobserved columns in the order of their numbers (``i * ny
         + j``): :func:`core.ground.steps_to_observed` along ``(di, dj)``
         (behind) and along its reverse (ahead), -1 where the line leaves the
@@ -91,21 +101,17 @@ def chord_steps(observed: np.ndarray, directions: np.ndarray) -> tuple[np.ndarra
     Examples
     --------
     >>> observed = np.array([[True, False, False, True]])
-    >>> behind, ahead = chord_steps(observed, np.array([[0, 1], [1, 0]]))
-    >>> behind.tolist(), ahead.tolist()
-    ([[1, 2], [-1, -1]], [[2, 1], [-1, -1]])
+    >>> [steps.tolist() for steps in walk_steps(observed, 0, 1)]
+    [[1, 2], [2, 1]]
+    >>> [steps.tolist() for steps in walk_steps(observed, 1, 0)]
+    [[-1, -1], [-1, -1]]
     """
+    if not (0 <= di <= 2) or (di == 0 and dj <= 0):
+        raise ValueError(f"direction ({di}, {dj}): di 0 to 2, and dj > 0 where di is 0")
     observed = np.ascontiguousarray(observed, dtype=np.bool_)
-    directions = np.ascontiguousarray(directions, dtype=np.int64)
-    if len(directions) and (directions[:, 0].min() < 0 or directions[:, 0].max() > 2
-                            or (directions[:, 1][directions[:, 0] == 0] <= 0).any()):
-        raise ValueError(f"directions {directions.tolist()}: di 0 to 2, and dj > 0 where di is 0")
-    behind = np.empty((len(directions), observed.size - int(np.count_nonzero(observed))), np.int32)
+    behind = np.empty(observed.size - int(np.count_nonzero(observed)), np.int32)
     ahead = np.empty_like(behind)
-    # Sixteen walks of equal cost: one task each.
-    walks = [(d, backwards) for d in range(len(directions)) for backwards in (False, True)]
-    map_blocks(lambda walk: _walk(observed, directions[walk[0], 0], directions[walk[0], 1], walk[1],
-                                  (ahead if walk[1] else behind)[walk[0]]), walks)
+    map_blocks(lambda backwards: _walk(observed, di, dj, backwards, ahead if backwards else behind), (False, True))
     return behind, ahead
 
 
@@ -115,9 +121,8 @@ def warm_up() -> int:
                                 np.array([[0, 1]]), np.array([[1.0, 1 / 16, 1 / 81, 1 / 256]]))
     assert (total / weights).tolist() == [2.0, 3.0], (total, weights)
     observed = np.array([[True, False, False, True], [False, False, False, False], [True, True, False, True]])
-    behind, ahead = chord_steps(observed, np.array([[0, 1], [1, 0], [1, 1], [2, -1]]))
-    assert behind[0].tolist() == [1, 2, -1, -1, -1, -1, 1] and ahead[1].tolist() == [2, -1, 1, 1, -1, 1, -1], \
-        (behind, ahead)
+    assert walk_steps(observed, 0, 1)[0].tolist() == [1, 2, -1, -1, -1, -1, 1]
+    assert walk_steps(observed, 1, 0)[1].tolist() == [2, -1, 1, 1, -1, 1, -1]
     return 1
 
 
@@ -156,19 +161,17 @@ def _walk(observed, di, dj, backwards, steps):
 
 
 @compiled
-def _sums(behind, ahead, missing, level, ny, directions, weight, first, stop, total, weights):
-    """:func:`chord_sums` of the missing columns ``first:stop``."""
+def _add_chords(behind, ahead, missing, level, ny, di, dj, weight, first, stop, total, weights):
+    """Add the chords along ``(di, dj)`` of the missing columns ``first:stop``
+    (steps ``behind`` and ``ahead``, weights by steps ``weight``) into their
+    ``total`` and ``weights``: numpy's operations, in its order."""
     for m in range(first, stop):
+        b, a = behind[m], ahead[m]
+        if b <= 0 or a <= 0:
+            continue
         i, j = missing[m] // ny, missing[m] % ny
-        t, w_sum = 0.0, 0.0
-        for d in range(len(directions)):
-            b, a = behind[d, m], ahead[d, m]
-            if b <= 0 or a <= 0:
-                continue
-            di, dj = directions[d, 0], directions[d, 1]
-            z_behind = level[(i - b * di) * ny + (j - b * dj)]
-            z_ahead = level[(i + a * di) * ny + (j + a * dj)]
-            w = weight[d, min(a, b) - 1]
-            t += w * (z_behind + (z_ahead - z_behind) * (b / (a + b)))
-            w_sum += w
-        total[m], weights[m] = t, w_sum
+        z_behind = level[(i - b * di) * ny + (j - b * dj)]
+        z_ahead = level[(i + a * di) * ny + (j + a * dj)]
+        w = weight[min(a, b) - 1]
+        total[m] += w * (z_behind + (z_ahead - z_behind) * (b / (a + b)))
+        weights[m] += w
