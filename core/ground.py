@@ -207,7 +207,7 @@ def _fill_missing(z: np.ndarray, observed: np.ndarray) -> np.ndarray:
     December 2026) took 1.3 s on the 1 km synthetic city (85 k rim columns
     on a lattice, degenerate for qhull) and 5.7 s on the 2 km one; the
     chords took 0.13-0.19 s on the 1 km city in numpy then (0.37-0.58 s on
-    other days), and take 0.04 s compiled (:mod:`core.ground_kernel`).
+    other days), and take 0.04-0.06 s compiled (:mod:`core.ground_kernel`).
     Both guess the same thing, the ground under a roof, about equally well:
     the file's own roof gaps laid over its observed ground elsewhere (six
     shifts; the observed levels as the truth) are filled with a mean error

@@ -14,9 +14,10 @@ writing only the missing columns' steps; a direction's two walks run on two
 threads. Then its chords are added into each missing column's sums, on all
 cores, with numpy's operations, the directions in numpy's order and each
 chord's weight from the same table (:func:`core.ground.chord_weights`): the
-sums are numpy's to the last bit. The 1 km synthetic city's 1 M columns, 259 k of them missing: 0.04 s on
-both cores, where numpy's steps and sums took 0.48-0.58 s on one (the same
-hour; 0.37 s in a run of the pipeline on another day).
+sums are numpy's to the last bit. The 1 km synthetic city's 1 M columns,
+259 k of them missing: 0.04-0.06 s on both cores, where numpy's steps and
+sums took 0.48-0.58 s on one (the same hour; 0.37 s in a run of the
+pipeline on another day).
 """
 from __future__ import annotations
 
