@@ -154,7 +154,7 @@ def _split_quality_into(nodes: np.ndarray, quads: np.ndarray, rows: np.ndarray, 
     Compiled, each quad is read and its results written in place
     (:func:`core.quality_kernel.split_quality_into`): no table of the quads
     gathered, nor of the results to scatter (the 1 km city's smoothing:
-    some 50 ms of its three passes on one core).
+    0.19 -> 0.165 s over its three passes).
     """
     if jit.run("quality_kernel", "split_quality_into", nodes, quads, rows, quality, normal, size=len(rows)) is None:
         _, quality[rows], normal[rows] = _split_quality(nodes, quads.take(rows, axis=0))
