@@ -248,7 +248,9 @@ class PlaneCache:
     def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centre, normal and flatness (as :func:`mls_planes`) of the planes at ``points`` (data indices)."""
         # Gathers of rows scattered over tables of every data point: on all cores.
-        missing = points.compress(take_rows(self.slot, points) < 0)
+        row = take_rows(self.slot, points)
+        unfitted = row < 0
+        missing = points.compress(unfitted)
         if len(missing):
             # The points not fitted yet, once each and ascending (as np.unique).
             wanted = np.zeros(len(self.data), dtype=bool)
@@ -260,5 +262,6 @@ class PlaneCache:
             self.centre = np.concatenate([self.centre, centre])
             self.normal = np.concatenate([self.normal, normal])
             self.flat = np.concatenate([self.flat, flat])
-        row = take_rows(self.slot, points)
+            # Only the points just fitted have new rows: not a second gather of them all.
+            row[unfitted] = self.slot.take(missing)
         return take_rows(self.centre, row), take_rows(self.normal, row), take_rows(self.flat, row)
