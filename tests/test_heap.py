@@ -13,8 +13,9 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.skipif(heap._LIBC is None, reason="glibc only")
 
 _PROBE = """
+import sys, time
 import numpy as np
-from core.heap import reusing_freed_memory
+from core.heap import release, reusing_freed_memory
 
 def rss_mb():
     return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
@@ -28,17 +29,43 @@ with reusing_freed_memory():
     reused = rss_mb() - start
     del again
 after = rss_mb() - start
-print(kept, reused, after)
+with reusing_freed_memory():  # the next run, within the time kept
+    again = np.ones(50_000_000 // 8); del again
+next_run = rss_mb() - start
+if sys.argv[1] == "release":
+    release()
+elif sys.argv[1] == "wait":
+    time.sleep(1.0)
+released = rss_mb() - start
+print(kept, reused, after, next_run, released)
 """
 
 
+def _probe(keep_seconds: str, then: str) -> list[float]:
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "URBANVOX_KEEP_MEMORY_SECONDS": keep_seconds}
+    out = subprocess.run([sys.executable, "-c", _PROBE, then], cwd=ROOT, capture_output=True, text=True,
+                         env=env, check=True).stdout
+    return [float(value) for value in out.split()]
+
+
 def test_freed_memory_is_kept_inside_and_handed_back_after():
-    out = subprocess.run([sys.executable, "-c", _PROBE], cwd=ROOT, capture_output=True, text=True,
-                         env={**os.environ, "PYTHONPATH": str(ROOT)}, check=True).stdout
-    kept, reused, after = map(float, out.split())
+    kept, reused, after, _, _ = _probe("0", "nothing")
     assert kept > 45  # the 50 MB freed stayed in the process
     assert reused < kept + 5  # and served the next 50 MB
     assert after < 5  # all handed back when the last user left
+
+
+def test_freed_memory_serves_the_next_run_then_is_handed_back():
+    # Kept for a minute after a run (the default), the heap serves a run that
+    # starts meanwhile without growing; release() hands it back at once.
+    kept, _, after, next_run, released = _probe("", "release")
+    assert kept > 45
+    assert after > 45  # still kept after the last user left
+    assert next_run < after + 5  # the next run reused it
+    assert released < 5
+    # With a short time kept, the timer hands it back by itself.
+    *_, next_run, released = _probe("0.2", "wait")
+    assert next_run > 45 and released < 5
 
 
 def test_no_amount_of_freed_memory_is_handed_back_inside(monkeypatch):
@@ -59,6 +86,9 @@ def test_no_amount_of_freed_memory_is_handed_back_inside(monkeypatch):
 
     monkeypatch.setattr(heap, "_LIBC", Recorder())
     monkeypatch.setattr(heap, "_set_huge_pages", lambda enabled: None)
+    monkeypatch.setattr(heap, "_applied", False)  # this test's own state, whatever a run left
+    monkeypatch.setattr(heap, "_release_timer", None)
+    monkeypatch.setenv("URBANVOX_KEEP_MEMORY_SECONDS", "0")
     with heap.reusing_freed_memory():
         assert calls == [(heap._M_MMAP_THRESHOLD, 2**31 - 1), (heap._M_TRIM_THRESHOLD, -1)]
     assert calls[2:] == [(heap._M_MMAP_THRESHOLD, 128 * 1024), (heap._M_TRIM_THRESHOLD, 128 * 1024), ("trim", 0)]
@@ -82,10 +112,13 @@ def test_worker_environment_is_scoped_to_the_cluster_start():
 
 
 def test_numpy_huge_page_requests_are_off_during_a_run_only():
+    heap.release()  # a run of another test may have left its settings, kept for the next
     before = heap._set_huge_pages(True)
     try:
         with heap.reusing_freed_memory():
             assert heap._set_huge_pages(False) is False  # off inside (the call returns the setting it replaced)
+        assert heap._set_huge_pages(False) is False  # still off while the heap is kept for the next run
+        heap.release()
         assert heap._set_huge_pages(True) is True  # and back on after
     finally:
         heap._set_huge_pages(before)
