@@ -97,8 +97,14 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
     Parameters
     ----------
     select : ndarray of bool (N,), optional
-        Nodes whose normal is wanted; the others get a zero vector, and the
-        faces touching none of them are not looked at. Default: all nodes.
+        Nodes whose normal is wanted; the faces touching none of them are
+        not looked at. Default: all nodes.
+
+    Returns
+    -------
+    ndarray (S, 3)
+        A unit normal (a zero vector where the faces' normals cancel) for
+        each ``select`` node, in node order.
     """
     n = len(nodes)
     if select is None:
@@ -119,7 +125,7 @@ def outward_normals(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles,
             quads = faces_of()
             quads = quads.compress(touching(wanted, quads), axis=0)
             np.copyto(normal, node_normals(nodes, quads, n), where=wanted[:, None])
-    return normal
+    return normal.compress(select, axis=0)
 
 
 def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, select: np.ndarray,
@@ -169,7 +175,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     if is_cancelled is not None and is_cancelled():
         raise Cancelled()
     # take and compress: row gathers faster than indexing (core.vectors).
-    normal = outward_normals(model, nodes, roles, select).take(idx_nodes, axis=0)
+    normal = outward_normals(model, nodes, roles, select)
     fixed_axes = roles.fixed_axes.take(idx_nodes, axis=0)
     # Constrained coordinates are not moved: drop them from the direction.
     normal[fixed_axes] = 0.0
