@@ -174,8 +174,8 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
         return nodes, stats
     if is_cancelled is not None and is_cancelled():
         raise Cancelled()
-    # take and compress: row gathers faster than indexing (core.vectors).
     normal = outward_normals(model, nodes, roles, select)
+    # take and compress: row gathers faster than indexing (core.vectors).
     fixed_axes = roles.fixed_axes.take(idx_nodes, axis=0)
     # Constrained coordinates are not moved: drop them from the direction.
     normal[fixed_axes] = 0.0
