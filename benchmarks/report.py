@@ -44,6 +44,8 @@ def print_case(name: str, voxel: float, r: dict) -> None:
           f"({r['n_ground']:,} ground, {r['n_building']:,} building), {r['voxels']:,} voxels"
           f"{' in %d grids' % r['clusters'] if r['clusters'] > 1 else ''}, {r['faces']:,} faces; "
           f"end to end {r['e2e_s']:.2f} s, peak RSS {r['peak_rss_mb']:,.0f} MB")
+    if r.get("as_qgis"):
+        print("  run as QGIS runs an algorithm: on a thread of its own, glibc's default arenas (--as-qgis)")
     if "runs" in r:
         print(f"  figures of the last of {len(r['runs'])} runs in one process; end to end (method) of each: "
               + ", ".join(f"{run['e2e_s']:.2f} ({run['pipeline_s']:.2f})" for run in r["runs"]) + " s")

@@ -413,14 +413,46 @@ def _machine() -> dict:
 NOT_INSTALLED_TEXT = "not installed"
 
 
+def _on_a_host_thread(func, *args):
+    """``func(*args)`` as QGIS runs an algorithm: on a thread of a host process
+    whose threads have glibc's own arenas (no :func:`core.heap.one_arena`).
+
+    Such a thread's arena serves every block above 64 MB from fresh pages
+    (README, *In QGIS and qgis_process*).
+    """
+    import threading
+
+    import numpy as np
+
+    threading.Thread(target=np.ones, args=(1000,)).start()  # the host's threads have arenas already
+    out: dict = {}
+
+    def run() -> None:
+        try:
+            out["value"] = func(*args)
+        except BaseException as exc:  # raised again on the calling thread
+            out["error"] = exc
+
+    thread = threading.Thread(target=run, name="host-task")
+    thread.start()
+    thread.join()
+    if "error" in out:
+        raise out["error"]
+    return out["value"]
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv and argv[0] == "--child":
-        from core.heap import one_arena
-
-        one_arena()  # as the command line (python -m core) runs
         spec = json.loads(argv[1])
-        report = run_case(spec)
+        if spec.get("as_qgis"):
+            report = _on_a_host_thread(run_case, spec)
+        else:
+            from core.heap import one_arena
+
+            one_arena()  # as the command line (python -m core) runs
+            report = run_case(spec)
+        report["as_qgis"] = bool(spec.get("as_qgis"))
         print("REPORT " + json.dumps(report, default=float))
         return 0
     parser = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__.split("\n\n")[0])
@@ -437,6 +469,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=1,
                         help="runs of each case in its process, the last one reported (default 1): later "
                              "runs reuse the memory the first one took from the system")
+    parser.add_argument("--as-qgis", action="store_true",
+                        help="run each case as QGIS runs an algorithm: on a thread of its own, with glibc's "
+                             "default arenas (the command line's single heap otherwise)")
     parser.add_argument("--timeout", type=float, default=3600.0, help="seconds per case (default 3600)")
     parser.add_argument("--json", type=Path, help="results file (default benchmarks/results/bench-DATE.json)")
     parser.add_argument("--list", action="store_true", help="list the cases and exit")
@@ -474,7 +509,8 @@ def main(argv: list[str] | None = None) -> int:
         for voxel in voxels:
             spec = {"name": name, "kind": "mesh" if case["kind"] == "mesh" else "las",
                     "paths": [str(p) for p in paths], "crs": case["crs"], "voxel": voxel,
-                    "baselines": not args.no_baselines, "profile": args.profile, "repeat": args.repeat}
+                    "baselines": not args.no_baselines, "profile": args.profile, "repeat": args.repeat,
+                    "as_qgis": args.as_qgis}
             row = {"case": name, "voxel": voxel, "spec": spec}
             started = time.perf_counter()
             try:
