@@ -27,9 +27,10 @@ run's peak while it is idle.
 :data:`WORKER_ENVIRONMENT` does the same for worker processes (Dask), where
 the settings must be in place before the first allocation; one arena makes
 the tasks' threads use that heap too (a thread's own arena serves blocks
-above 64 MB from mmap whatever the threshold, which is also why a run in
-QGIS's worker thread gains less). Elsewhere than Linux and glibc both do
-nothing.
+above 64 MB from mmap whatever the threshold). In a host process (QGIS),
+whose threads have arenas of their own, the run's thread and the pool's make
+numpy's arrays in a region of their own instead (:mod:`core.array_heap`).
+Elsewhere than Linux and glibc both do nothing.
 """
 from __future__ import annotations
 
@@ -66,6 +67,7 @@ WORKER_ENVIRONMENT = {
 KEEP_SECONDS = 60.0
 
 _lock = threading.Lock()
+_one_heap = os.environ.get("MALLOC_ARENA_MAX", "").strip() == "1"  # every thread on the first heap
 _depth = 0
 _applied = False  # the run's settings in place (during runs and the time kept after)
 _huge_pages: bool | None = None  # numpy's setting before the first run
@@ -107,7 +109,27 @@ def one_arena() -> bool:
     host process (QGIS) keeps its own policy. Returns whether it was set
     (glibc only; ``tests/test_heap.py`` counts the page faults it saves).
     """
-    return _LIBC is not None and bool(_LIBC.mallopt(_M_ARENA_MAX, 1))
+    global _one_heap
+    _one_heap = _one_heap or (_LIBC is not None and bool(_LIBC.mallopt(_M_ARENA_MAX, 1)))
+    return _one_heap
+
+
+def host_threads() -> bool:
+    """Whether this process's threads may have arenas of their own (a host
+    such as QGIS, or a process that did not call :func:`one_arena` before its
+    threads): the runs' threads then make numpy's arrays in
+    :mod:`core.array_heap`."""
+    return _LIBC is not None and not _one_heap
+
+
+def on_pool_thread() -> None:
+    """At the start of a thread of :mod:`core.parallel`'s pools: in a host
+    process, its numpy arrays come from :mod:`core.array_heap` (the pools'
+    threads run the runs' blocks only)."""
+    if host_threads():
+        from . import array_heap
+
+        array_heap.use_on_this_thread()
 
 
 def keep_seconds() -> float:
@@ -153,6 +175,11 @@ def reusing_freed_memory() -> Iterator[None]:
     if _LIBC is None:
         yield
         return
+    on_region = False
+    if host_threads():
+        from . import array_heap
+
+        on_region = array_heap.use_on_this_thread()
     with _lock:
         _depth += 1
         if _release_timer is not None:  # a run within the time kept: the heap serves it
@@ -166,6 +193,8 @@ def reusing_freed_memory() -> Iterator[None]:
     try:
         yield
     finally:
+        if on_region:
+            array_heap.stop_on_this_thread()
         with _lock:
             _depth -= 1
             wait = keep_seconds() if _depth == 0 else None
@@ -199,6 +228,10 @@ def release() -> None:
             _set_huge_pages(_huge_pages)
         _applied = False
         give_back()
+        if host_threads():
+            from . import array_heap
+
+            array_heap.return_free_pages()
 
 
 def give_back() -> None:

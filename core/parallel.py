@@ -28,6 +28,8 @@ from typing import Callable, Iterable, Iterator, Sequence, TypeVar
 
 import numpy as np
 
+from .heap import on_pool_thread
+
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -123,7 +125,8 @@ def in_background(func: Callable[..., R], *args) -> Future:
         return future
     with _lock:
         if _background is None:
-            _background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-background")
+            _background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-background",
+                                             initializer=on_pool_thread)
     return _background.submit(func, *args)
 
 
@@ -261,5 +264,6 @@ def _executor(threads: int) -> ThreadPoolExecutor:
     with _lock:
         pool = _pools.get(threads)
         if pool is None:
-            pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox")
+            pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox",
+                                                        initializer=on_pool_thread)
         return pool

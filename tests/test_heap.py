@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from core import heap
+from core import array_heap, heap
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -15,11 +15,15 @@ pytestmark = pytest.mark.skipif(heap._LIBC is None, reason="glibc only")
 _PROBE = """
 import sys, time
 import numpy as np
-from core.heap import release, reusing_freed_memory
+from core import array_heap
+from core.heap import host_threads, release, reusing_freed_memory
 
 def rss_mb():
     return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
 
+# In a host process the arrays come from core.array_heap: loaded first (numba
+# takes some 100 MB), so that the memory measured is the arrays'.
+assert host_threads() == (sys.argv[2] == "host") and (sys.argv[2] != "host" or array_heap.available())
 start = rss_mb()
 with reusing_freed_memory():
     with reusing_freed_memory():  # nested, as tiles and clusters call the pipeline
@@ -42,30 +46,42 @@ print(kept, reused, after, next_run, released)
 """
 
 
-def _probe(keep_seconds: str, then: str) -> list[float]:
+def _probe(keep_seconds: str, then: str, process: str) -> list[float]:
+    """The probe in a process of its own: ``process`` "one heap" as the
+    command line's (glibc's first heap for every thread), or "host" (threads
+    with arenas of their own: numpy's arrays from core.array_heap)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT), "URBANVOX_KEEP_MEMORY_SECONDS": keep_seconds}
-    out = subprocess.run([sys.executable, "-c", _PROBE, then], cwd=ROOT, capture_output=True, text=True,
+    env.pop("MALLOC_ARENA_MAX", None)
+    if process == "one heap":
+        env["MALLOC_ARENA_MAX"] = "1"
+    out = subprocess.run([sys.executable, "-c", _PROBE, then, process], cwd=ROOT, capture_output=True, text=True,
                          env=env, check=True).stdout
     return [float(value) for value in out.split()]
 
 
-def test_freed_memory_is_kept_inside_and_handed_back_after():
-    kept, reused, after, _, _ = _probe("0", "nothing")
+_PROCESSES = ["one heap", pytest.param("host", marks=pytest.mark.skipif(
+    not array_heap.available(), reason="core.array_heap needs numba and numpy's headers"))]
+
+
+@pytest.mark.parametrize("process", _PROCESSES)
+def test_freed_memory_is_kept_inside_and_handed_back_after(process):
+    kept, reused, after, _, _ = _probe("0", "nothing", process)
     assert kept > 45  # the 50 MB freed stayed in the process
     assert reused < kept + 5  # and served the next 50 MB
     assert after < 5  # all handed back when the last user left
 
 
-def test_freed_memory_serves_the_next_run_then_is_handed_back():
+@pytest.mark.parametrize("process", _PROCESSES)
+def test_freed_memory_serves_the_next_run_then_is_handed_back(process):
     # Kept for a minute after a run (the default), the heap serves a run that
     # starts meanwhile without growing; release() hands it back at once.
-    kept, _, after, next_run, released = _probe("", "release")
+    kept, _, after, next_run, released = _probe("", "release", process)
     assert kept > 45
     assert after > 45  # still kept after the last user left
     assert next_run < after + 5  # the next run reused it
     assert released < 5
     # With a short time kept, the timer hands it back by itself.
-    *_, next_run, released = _probe("0.2", "wait")
+    *_, next_run, released = _probe("0.2", "wait", process)
     assert next_run > 45 and released < 5
 
 
