@@ -24,6 +24,9 @@ faces each tile owns and the numbering and copying of the tiles' nodes
 and faces into one model (:mod:`core.tiles_kernel`), the
 weighted moments and least axes of the MLS planes (:mod:`core.mls_kernel`) and the
 reader's sorting of a LAS chunk's points (:mod:`core.las_kernel`).
+One more compiled module is no kernel: the allocator of numpy's large
+arrays on a host's threads (:mod:`core.array_heap_kernel`), without a numpy
+twin; without numba, the C library allocates as before.
 numba compiles such loops; the issue that asked for speed allows a compiled
 kernel only where numpy cannot reach the target, and only with the same
 results.
