@@ -95,7 +95,7 @@ def _prepare() -> bool:
                                 ctypes.POINTER(ctypes.c_void_p))
             set_handler = ctypes.PYFUNCTYPE(ctypes.py_object, ctypes.py_object)(table[index])
             size = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-            mmap = kernel._function("mmap", ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t, ctypes.c_int,
+            mmap = kernel.c_function("mmap", ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t, ctypes.c_int,
                                     ctypes.c_int, ctypes.c_int, ctypes.c_ssize_t)
             # Address space only: pages are backed as the arrays touch them.
             base = mmap(0, size, 0x1 | 0x2, 0x02 | 0x20 | 0x4000, -1, 0)  # read/write, private anonymous, noreserve

@@ -37,7 +37,7 @@ BASE, SIZE, TOP, COUNT, HIGH, FIRST = 0, 1, 2, 3, 4, 8
 _libc = ctypes.CDLL(None)
 
 
-def _function(name: str, restype, *argtypes):
+def c_function(name: str, restype, *argtypes):
     """A C library function for Python (:mod:`core.array_heap` reserves the region with ``mmap``)."""
     function = getattr(_libc, name)
     function.restype, function.argtypes = restype, list(argtypes)

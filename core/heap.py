@@ -126,10 +126,21 @@ def on_pool_thread() -> None:
     """At the start of a thread of :mod:`core.parallel`'s pools: in a host
     process, its numpy arrays come from :mod:`core.array_heap` (the pools'
     threads run the runs' blocks only)."""
-    if host_threads():
+    _use_region()
+
+
+def _use_region() -> bool:
+    """In a host process, this thread's numpy arrays from :mod:`core.array_heap`
+    from now on; whether they do. Never raises: glibc serving a thread as
+    before is no reason to stop a run, or to break a pool at a thread's start."""
+    if not host_threads():
+        return False
+    try:
         from . import array_heap
 
-        array_heap.use_on_this_thread()
+        return array_heap.use_on_this_thread()
+    except Exception:  # noqa: BLE001 - an unexpected numpy: glibc serves, as before
+        return False
 
 
 def keep_seconds() -> float:
@@ -175,11 +186,7 @@ def reusing_freed_memory() -> Iterator[None]:
     if _LIBC is None:
         yield
         return
-    on_region = False
-    if host_threads():
-        from . import array_heap
-
-        on_region = array_heap.use_on_this_thread()
+    on_region = _use_region()
     with _lock:
         _depth += 1
         if _release_timer is not None:  # a run within the time kept: the heap serves it
@@ -194,6 +201,8 @@ def reusing_freed_memory() -> Iterator[None]:
         yield
     finally:
         if on_region:
+            from . import array_heap
+
             array_heap.stop_on_this_thread()
         with _lock:
             _depth -= 1
