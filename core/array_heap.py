@@ -13,7 +13,7 @@ page faults a run, 13.4-15.3 s of method against 10.8-11.6 s.
 numpy lets a thread choose the allocator of its arrays' data (NEP 49,
 ``PyDataMem_SetHandler``, a context variable: other threads and the host's
 code keep theirs). :func:`use_on_this_thread` sets one whose blocks of 1 MB
-and more come from a region of address space reserved once, first fit with
+and more come from a region of address space reserved once, best fit with
 freed ranges merged (:mod:`core.array_heap_kernel`, compiled with numba),
 the smaller ones from glibc. :func:`return_free_pages` hands the free
 ranges' pages back; :mod:`core.heap` calls it when it hands back its own.
