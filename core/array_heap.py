@@ -19,7 +19,7 @@ the smaller ones from glibc. :func:`return_free_pages` hands the free
 ranges' pages back; :mod:`core.heap` calls it when it hands back its own.
 numba's own arrays, and other libraries' buffers, still come from glibc.
 
-It is off (:func:`available` is False) without numba, off Linux, where the
+It is off (:func:`available` is False) without numba, off Linux and glibc, where the
 numpy headers do not give the handler's place in numpy's C API, where the
 region cannot be reserved, and with ``URBANVOX_ARRAY_HEAP=0``.
 """
@@ -35,14 +35,16 @@ from pathlib import Path
 import numpy as np
 
 from . import jit
+from .heap import _glibc
 
 _lock = threading.Lock()
 _local = threading.local()
 _state: np.ndarray | None = None
+_kernel = None  # core.array_heap_kernel, once the handler is made
 _capsule = None
 _set_handler = None
 _tried = False
-_keep: list = []  # what numpy's handler points into: the struct, its name, the kernel module
+_keep: list = []  # what numpy's handler points into: the struct and its name
 
 
 class _Allocator(ctypes.Structure):
@@ -74,7 +76,7 @@ def _api_capsule():
 
 def _prepare() -> bool:
     """Make the handler once: False if it cannot be made here."""
-    global _state, _capsule, _set_handler, _tried
+    global _state, _kernel, _capsule, _set_handler, _tried
     with _lock:
         if _tried:
             return _capsule is not None
@@ -82,8 +84,9 @@ def _prepare() -> bool:
         if not sys.platform.startswith("linux") or os.environ.get("URBANVOX_ARRAY_HEAP", "1").strip() == "0":
             return False
         index = _api_index("PyDataMem_SetHandler")
+        libc = _glibc()
         kernel = jit.kernels("array_heap_kernel")
-        if index is None or kernel is None:
+        if index is None or libc is None or kernel is None:
             return False
         try:
             pythonapi = ctypes.pythonapi
@@ -95,8 +98,10 @@ def _prepare() -> bool:
                                 ctypes.POINTER(ctypes.c_void_p))
             set_handler = ctypes.PYFUNCTYPE(ctypes.py_object, ctypes.py_object)(table[index])
             size = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-            mmap = kernel.c_function("mmap", ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t, ctypes.c_int,
-                                    ctypes.c_int, ctypes.c_int, ctypes.c_ssize_t)
+            mmap = libc.mmap
+            mmap.restype = ctypes.c_size_t
+            mmap.argtypes = [ctypes.c_size_t, ctypes.c_size_t, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                             ctypes.c_ssize_t]
             # Address space only: pages are backed as the arrays touch them.
             base = mmap(0, size, 0x1 | 0x2, 0x02 | 0x20 | 0x4000, -1, 0)  # read/write, private anonymous, noreserve
             if base in (0, 2**64 - 1):
@@ -110,8 +115,8 @@ def _prepare() -> bool:
         except Exception as exc:  # an unexpected numpy or libc: glibc's allocator stays
             jit._warn("array_heap_kernel", exc)
             return False
-        _keep.extend([handler, name, kernel])
-        _state, _capsule, _set_handler = state, capsule, set_handler
+        _keep.extend([handler, name])
+        _state, _kernel, _capsule, _set_handler = state, kernel, capsule, set_handler
         return True
 
 
@@ -164,17 +169,12 @@ def in_use_here() -> bool:
 
 def return_free_pages() -> int:
     """Hand the pages of the region's free ranges back to the system; the bytes."""
-    if _state is None:
-        return 0
-    kernel = jit.kernels("array_heap_kernel")
-    return 0 if kernel is None else kernel.return_free_pages(_state)
+    return 0 if _state is None else _kernel.return_free_pages(_state)
 
 
 def region_in_use() -> tuple[int, int]:
     """Bytes of the region below its top, and in its free ranges (for tests and benchmarks)."""
     if _state is None:
         return 0, 0
-    from .array_heap_kernel import COUNT, FIRST, TOP
-
-    count = int(_state[COUNT])
-    return int(_state[TOP]), int(_state[FIRST + 1:FIRST + 2 * count:2].sum())
+    first, count = _kernel.FIRST, int(_state[_kernel.COUNT])
+    return int(_state[_kernel.TOP]), int(_state[first + 1:first + 2 * count:2].sum())

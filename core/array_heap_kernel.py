@@ -15,12 +15,12 @@ cache of small blocks is not thread-safe either, so the table needs no lock.
 """
 from __future__ import annotations
 
-import ctypes
-
 import numba
 import numpy as np
 from numba import carray, types
 from numba.extending import intrinsic
+
+from .neighbours_kernel import compiled
 
 #: Bytes before every block's data: its kind, and for the region's blocks its size.
 HEADER = 64
@@ -33,16 +33,6 @@ RANGES = 4096
 #: The table's words: the region's address and size, the top of the part used,
 #: the number of free ranges, the highest top reached; then (offset, size) pairs.
 BASE, SIZE, TOP, COUNT, HIGH, FIRST = 0, 1, 2, 3, 4, 8
-
-_libc = ctypes.CDLL(None)
-
-
-def c_function(name: str, restype, *argtypes):
-    """A C library function for Python (:mod:`core.array_heap` reserves the region with ``mmap``)."""
-    function = getattr(_libc, name)
-    function.restype, function.argtypes = restype, list(argtypes)
-    return function
-
 
 # The C library's functions for the compiled code, by name: linked when the
 # cached code loads, so the code can be cached (ctypes pointers cannot).
@@ -67,8 +57,6 @@ def _words(typingctx, address):
 
     return signature, codegen
 
-
-compiled = numba.njit(cache=True, nogil=True)
 
 
 def new_state(base: int, size: int) -> np.ndarray:

@@ -122,17 +122,12 @@ def host_threads() -> bool:
     return _LIBC is not None and not _one_heap
 
 
-def on_pool_thread() -> None:
-    """At the start of a thread of :mod:`core.parallel`'s pools: in a host
-    process, its numpy arrays come from :mod:`core.array_heap` (the pools'
-    threads run the runs' blocks only)."""
-    _use_region()
-
-
-def _use_region() -> bool:
+def use_array_heap_here() -> bool:
     """In a host process, this thread's numpy arrays from :mod:`core.array_heap`
-    from now on; whether they do. Never raises: glibc serving a thread as
-    before is no reason to stop a run, or to break a pool at a thread's start."""
+    from now on; whether they do. A run's thread asks as the run starts, the
+    threads of :mod:`core.parallel`'s pools as they start (they run the runs'
+    blocks only). Never raises: glibc serving a thread as before is no reason
+    to stop a run, or to break a pool at a thread's start."""
     if not host_threads():
         return False
     try:
@@ -186,7 +181,7 @@ def reusing_freed_memory() -> Iterator[None]:
     if _LIBC is None:
         yield
         return
-    on_region = _use_region()
+    on_region = use_array_heap_here()
     with _lock:
         _depth += 1
         if _release_timer is not None:  # a run within the time kept: the heap serves it

@@ -28,7 +28,7 @@ from typing import Callable, Iterable, Iterator, Sequence, TypeVar
 
 import numpy as np
 
-from .heap import on_pool_thread
+from .heap import use_array_heap_here
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -126,7 +126,7 @@ def in_background(func: Callable[..., R], *args) -> Future:
     with _lock:
         if _background is None:
             _background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-background",
-                                             initializer=on_pool_thread)
+                                             initializer=use_array_heap_here)
     return _background.submit(func, *args)
 
 
@@ -265,5 +265,5 @@ def _executor(threads: int) -> ThreadPoolExecutor:
         pool = _pools.get(threads)
         if pool is None:
             pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox",
-                                                        initializer=on_pool_thread)
+                                                        initializer=use_array_heap_here)
         return pool
