@@ -50,6 +50,7 @@ from __future__ import annotations
 import importlib
 import os
 import threading
+import time
 import warnings
 from types import ModuleType
 
@@ -180,11 +181,15 @@ def run(name: str, function: str, *args, size: int | None = None):
         return None
 
 
-def preload(size: int) -> threading.Thread | None:
+def preload(size: int | None = None, after: float = 0.0) -> threading.Thread | None:
     """Load every kernel on a thread of its own, for work of ``size``
     elements that loads them anyway (:func:`kernels`), while the caller goes
     on with numpy work; None (nothing started) when that work is too small,
     the kernels are off, or a preload was already started in this process.
+    ``size`` None: a run of any size is coming and the process is idle until
+    then (a Processing dialog is open: the user is choosing its parameters),
+    so the kernels load first, ``after`` seconds from now (the dialog builds
+    meanwhile, without the loading's hold on the GIL).
 
     Loading them in a fresh process takes about 0.45 s, paid by every
     command-line run and every Dask worker's first tile. Loading holds the
@@ -197,12 +202,12 @@ def preload(size: int) -> threading.Thread | None:
     Returns the thread.
     """
     global _preloader
-    if not enabled() or (size < WORTHWHILE and not _always()):
+    if not enabled() or (size is not None and size < WORTHWHILE and not _always()):
         return None
     with _lock:
         if _preloader is not None:
             return None
-        _preloader = threading.Thread(target=warm_up, name="urbanvox-kernels", daemon=True)
+        _preloader = threading.Thread(target=_warm_up_after, args=(after,), name="urbanvox-kernels", daemon=True)
     _preloader.start()
     return _preloader
 
@@ -230,6 +235,11 @@ def _warn(name: str, exc: BaseException) -> None:
                   RuntimeWarning, stacklevel=3)
 
 
+def _warm_up_after(seconds: float) -> None:
+    time.sleep(seconds)
+    warm_up()
+
+
 def warm_up() -> list[str]:
     """Compile every kernel for the argument types the pipeline passes (or
     load them from the cache): ``make setup`` runs it (``python -m
@@ -239,8 +249,6 @@ def warm_up() -> list[str]:
 
 
 if __name__ == "__main__":
-    import time
-
     start = time.perf_counter()
     names = warm_up()
     print(f"compiled kernels: {', '.join(names) or 'none (numba missing or URBANVOX_JIT=0)'}"

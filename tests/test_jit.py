@@ -45,7 +45,7 @@ def test_small_work_does_not_load_the_kernels(monkeypatch):
     assert jit.kernels("quality_kernel", 1000) is not None
 
 
-def test_a_preload_loads_every_kernel_for_large_work_only_once(compiled, monkeypatch):
+def test_a_preload_loads_every_kernel_for_large_or_coming_work_only_once(compiled, monkeypatch):
     compiled("quality_kernel")  # numba is there (the fixture asserts it)
     monkeypatch.delenv("URBANVOX_JIT", raising=False)
     monkeypatch.setattr(jit, "_loaded", {})
@@ -56,9 +56,16 @@ def test_a_preload_loads_every_kernel_for_large_work_only_once(compiled, monkeyp
     thread.join(timeout=300)
     assert not thread.is_alive()
     assert sorted(name for name, module in jit._loaded.items() if module is not None) == sorted(jit.KERNELS)
+    # No size: a run of any size is coming (a Processing dialog is open), after a delay.
+    monkeypatch.setattr(jit, "_loaded", {})
+    monkeypatch.setattr(jit, "_preloader", None)
+    thread = jit.preload(after=1.0)
+    assert thread is not None and jit._loaded == {}  # still waiting
+    thread.join(timeout=300)
+    assert sorted(name for name, module in jit._loaded.items() if module is not None) == sorted(jit.KERNELS)
     monkeypatch.setattr(jit, "_preloader", None)
     monkeypatch.setenv("URBANVOX_JIT", "0")
-    assert jit.preload(jit.WORTHWHILE) is None
+    assert jit.preload(jit.WORTHWHILE) is None and jit.preload() is None
 
 
 def test_a_failing_kernel_falls_back_to_numpy_with_a_warning(kernel, monkeypatch):

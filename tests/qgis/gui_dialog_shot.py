@@ -1,7 +1,8 @@
 """Open each urbanvox algorithm dialog in a real QGIS GUI application and save a screenshot.
 
 Run by test_qgis_gui.py under Xvfb: ``python gui_dialog_shot.py OUTDIR PLUGINS_DIR``.
-Prints one line per dialog: algorithm id, window title, saved PNG.
+Prints one line per dialog: algorithm id, window title, saved PNG; then one line of the
+compiled kernels loaded while the dialogs were open: ``kernels:`` and their names.
 """
 import os
 import sys
@@ -24,7 +25,8 @@ from processing.gui.AlgorithmDialog import AlgorithmDialog  # noqa: E402
 out = sys.argv[1]
 for alg_id in ("urbanvox:reconstructfrompointcloud", "urbanvox:reconstructfrommesh"):
     alg = QgsApplication.processingRegistry().createAlgorithmById(alg_id)
-    dlg = AlgorithmDialog(alg, False, None)
+    # As the toolbox opens a dialog (processing/gui/ProcessingToolbox.py).
+    dlg = alg.createCustomParametersWidget(None) or AlgorithmDialog(alg, False, None)
     dlg.resize(900, 700)
     dlg.show()
     for _ in range(20):
@@ -34,4 +36,9 @@ for alg_id in ("urbanvox:reconstructfrompointcloud", "urbanvox:reconstructfromme
         sys.exit(f"could not save {path}")
     print(f"{alg_id}\t{dlg.windowTitle()}\t{path}")
     dlg.close()
+from urbanvox.core import jit  # noqa: E402
+
+if jit._preloader is not None:
+    jit._preloader.join(timeout=240)
+print("kernels:", *sorted(name for name in jit.KERNELS if jit.ready(name)))
 app.exitQgis()

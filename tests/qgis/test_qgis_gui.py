@@ -33,7 +33,7 @@ def display():
     server.wait(timeout=10)
 
 
-def test_algorithm_dialogs_open_and_are_captured(display, urbanvox_plugin):
+def test_algorithm_dialogs_open_are_captured_and_load_the_kernels(display, urbanvox_plugin):
     ARTIFACTS.mkdir(exist_ok=True)
     plugins = REPO_ROOT / ".build" / "plugins"  # holds the urbanvox symlink (scripts/env.sh)
     plugins.mkdir(parents=True, exist_ok=True)
@@ -50,3 +50,8 @@ def test_algorithm_dialogs_open_and_are_captured(display, urbanvox_plugin):
     for _, _, path in shots:
         png = Path(path)
         assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 20_000
+    # Opening a dialog loaded the compiled kernels meanwhile: the session's first run does not wait.
+    loaded = next(line.split()[1:] for line in run.stdout.splitlines() if line.startswith("kernels:"))
+    from core import jit
+
+    assert loaded == sorted(jit.KERNELS)
