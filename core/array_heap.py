@@ -178,3 +178,18 @@ def region_in_use() -> tuple[int, int]:
         return 0, 0
     first, count = _kernel.FIRST, int(_state[_kernel.COUNT])
     return int(_state[_kernel.TOP]), int(_state[first + 1:first + 2 * count:2].sum())
+
+
+def ahead_of_top(nbytes: int, least: int) -> list[tuple[int, int]]:
+    """The range above the region's high-water mark that ``nbytes`` more of
+    arrays would reach beyond the free memory the region holds, if
+    ``least`` bytes or more: pages to fault in ahead (:func:`core.heap.fault_in_ahead`),
+    counted under the mark so that :func:`return_free_pages` hands them back."""
+    if _state is None:
+        return []
+    top, high, size = int(_state[_kernel.TOP]), int(_state[_kernel.HIGH]), int(_state[_kernel.SIZE])
+    end = min(top + nbytes - region_in_use()[1], size) // _kernel.PAGE * _kernel.PAGE  # free ranges serve first
+    if end - high < least:
+        return []
+    _state[_kernel.HIGH] = end  # the allocator, called with the GIL held as this is, moves it too
+    return [(int(_state[_kernel.BASE]) + high, end - high)]

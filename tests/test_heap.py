@@ -1,4 +1,5 @@
-"""The allocator settings of a run: freed memory reused inside, handed back after."""
+"""The allocator settings of a run: freed memory reused inside, faulted in ahead, handed back after."""
+import ctypes
 import os
 import subprocess
 import sys
@@ -182,3 +183,73 @@ def test_one_arena_lets_threads_reuse_the_freed_memory(arena):
         assert faults < 2_000
     else:
         assert faults > 5 * 24_000
+
+
+_AHEAD_PROBE = """
+import resource, sys
+import numpy as np
+from core import array_heap, heap
+
+def faults():
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+
+def rss_mb():
+    return int(open("/proc/self/statm").read().split()[1]) * 4096 / 2**20
+
+assert heap.host_threads() == (sys.argv[2] == "host") and (sys.argv[2] != "host" or array_heap.available())
+start = rss_mb()
+with heap.reusing_freed_memory():
+    thread = heap.fault_in_ahead(200 * 2**20) if sys.argv[1] == "ahead" else None
+    if thread is not None:
+        thread.join()
+    ahead = rss_mb() - start
+    before = faults()
+    block = np.ones(150 * 2**20 // 8)  # 38,400 pages written
+    taken = faults() - before
+    del block
+    again = heap.fault_in_ahead(200 * 2**20)  # the heap holds it now: nothing to do
+    # 2 GB asked, and the run ends at once: the thread stops there.
+    big = heap.fault_in_ahead(2 * 2**30)
+big is None or big.join(timeout=60)
+stopped = (big is None or not big.is_alive()) and rss_mb() - start < 1000  # not the 2 GB
+heap.release()
+print(thread is not None, ahead, taken, again is None, stopped, rss_mb() - start)
+"""
+
+
+def _populate_works() -> bool:
+    import mmap
+
+    area = mmap.mmap(-1, 1 << 20)
+    address = ctypes.addressof(ctypes.c_char.from_buffer(area))
+    try:
+        return heap._LIBC.madvise(address, 1 << 20, heap._MADV_POPULATE_WRITE) == 0
+    finally:
+        del address
+        area.close()
+
+
+@pytest.mark.parametrize("process", _PROCESSES)
+def test_a_runs_memory_is_faulted_in_ahead_and_handed_back(process):
+    # The pages of a run's estimate, faulted in by a thread of their own: the
+    # run's arrays then take them without faults, unchanged, and they go back
+    # with the rest of the heap.
+    if not _populate_works():
+        pytest.skip("the kernel has no MADV_POPULATE_WRITE (Linux 5.14)")
+    # The heap kept after the run (the default), so that what the stopped thread left shows.
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "URBANVOX_KEEP_MEMORY_SECONDS": "60"}
+    env.pop("MALLOC_ARENA_MAX", None)
+    if process == "one heap":
+        env["MALLOC_ARENA_MAX"] = "1"
+    results = {}
+    for how in ("ahead", "not"):
+        out = subprocess.run([sys.executable, "-c", _AHEAD_PROBE, how, process], cwd=ROOT, capture_output=True,
+                             text=True, env=env, check=True).stdout.split()
+        results[how] = out[0] == "True", float(out[1]), int(out[2]), out[3] == "True", out[4] == "True", \
+            float(out[5])
+    started, ahead, taken, nothing_again, stopped, released = results["ahead"]
+    assert started and ahead > 150  # 200 MB in, less what the heap held free
+    assert taken < 2_000  # against 38,400 pages
+    assert nothing_again and stopped and released < 20
+    started, ahead, taken, _, stopped, released = results["not"]
+    assert not started and ahead < 20 and taken > 35_000 and stopped and released < 20
