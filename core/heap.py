@@ -303,7 +303,7 @@ def fault_in_ahead(nbytes: int) -> threading.Thread | None:
     (:func:`reusing_freed_memory`) and where the heap keeps what it frees;
     ``URBANVOX_FAULT_AHEAD=0`` turns it off.
 
-    On the 1 km city at 1 m (the grid's estimate: 1.36 GB, some 0.9 GB
+    On the 1 km city at 1 m (the grid's estimate: 1.3 GB, some 0.8 GB
     beyond what the reading left free), a process's first run took 12.3-13.1
     s of method against 13.3-14.8 s without (six pairs, in turn); the
     benchmark's first runs, three pairs each, 13.1-14.9 s end to end against
