@@ -32,8 +32,9 @@ whose threads have arenas of their own, the run's thread and the pool's make
 numpy's arrays in a region of their own instead (:mod:`core.array_heap`).
 
 A fresh process still faults in every page of its heap once, and on a
-virtual machine each fault costs the host's time too: 0.39 M faults and 4-5 s
-of the kernel's time in the 1 km city's first run, 0.1 s in a later one.
+virtual machine each fault costs the host's time too: 0.39 M faults and 1-5 s
+of the kernel's time in the 1 km city's first run (as the host's state
+varied within an hour), 0.1 s in a later one.
 :func:`fault_in_ahead` has a thread of lower priority fault in, while the
 run's first steps go on, the memory the run's estimate says it will need,
 where a core is idle (1.7 of the 2 are busy on average).
