@@ -40,7 +40,7 @@ from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
-from .grid import GridWindow, check_face_memory, check_memory
+from .grid import GridWindow, available_memory, check_face_memory, check_memory
 from .ground import GroundLevel, NearGround, column_ground_level
 from .heap import fault_in_ahead, reusing_freed_memory
 from .manifold import make_well_composed, repair_height_field
@@ -260,8 +260,10 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     grid = window.grid(h)
     needed = check_memory(grid.shape, params.voxel_size, params.max_memory, tile_hint=True)
     # That memory's pages, where the heap does not hold them yet (a process's
-    # first run), are faulted in meanwhile on a core the run leaves idle.
-    fault_in_ahead(needed)
+    # first run), are faulted in meanwhile on a core the run leaves idle. At
+    # most half the memory the run may use: the estimate is the guard's, on the
+    # safe side, and the pages are the process's until the heap is handed back.
+    fault_in_ahead(min(needed, (params.max_memory or available_memory()) // 2))
     # Many points (not read from a file, which preloads them itself): the
     # kernels load meanwhile. Not for many voxels alone: Delft at 0.5 m (3.8 M
     # voxels, 120 k points) took 1.25-1.32 s in a first run with them all
