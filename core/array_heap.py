@@ -156,6 +156,11 @@ def stop_on_this_thread() -> None:
         _local.previous = None
 
 
+def uses_here() -> int:
+    """This thread's :func:`use_on_this_thread` not ended yet."""
+    return getattr(_local, "depth", 0)
+
+
 def in_use_here() -> bool:
     """Whether this thread's new arrays come from the region.
 

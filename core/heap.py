@@ -29,7 +29,8 @@ the settings must be in place before the first allocation; one arena makes
 the tasks' threads use that heap too (a thread's own arena serves blocks
 above 64 MB from mmap whatever the threshold). In a host process (QGIS),
 whose threads have arenas of their own, the run's thread and the pool's make
-numpy's arrays in a region of their own instead (:mod:`core.array_heap`).
+numpy's arrays in a region of their own instead (:mod:`core.array_heap`), in
+runs large enough for the compiled kernels.
 
 A fresh process still faults in every page of its heap once, and on a
 virtual machine each fault costs the host's time too: 0.39 M faults and 1-5 s
@@ -158,13 +159,25 @@ def host_threads() -> bool:
     return _LIBC is not None and not _one_heap
 
 
-def use_array_heap_here() -> bool:
+def use_array_heap_here(load: bool = False) -> bool:
     """In a host process, this thread's numpy arrays from :mod:`core.array_heap`
     from now on; whether they do. A run's thread asks as the run starts, the
-    threads of :mod:`core.parallel`'s pools as they start (they run the runs'
-    blocks only). Never raises: glibc serving a thread as before is no reason
-    to stop a run, or to break a pool at a thread's start."""
-    if not host_threads():
+    threads of :mod:`core.parallel`'s pools before each of their tasks (they
+    run the runs' blocks only, :func:`array_heap_on_pool_thread`). Never
+    raises: glibc serving a thread as before is no reason to stop a run, or
+    to break a pool.
+
+    Only once numba is imported, by the kernels of a run large enough to
+    want them (:func:`core.jit.kernels`), or with ``load`` during a run (a
+    reader about to make a large run's points, :mod:`core.readers.las`):
+    the region's allocator is compiled with numba, and importing it for a
+    small run cost more than the region gains there (Delft at 1 m through
+    ``qgis_process``, in turn: 2.49-2.75 s a run with it, 1.92-2.21 s
+    without). A run too small for the kernels makes no array as large as a
+    thread's heap serves from fresh pages (64 MB). The run's
+    :func:`reusing_freed_memory` ends the thread's uses made inside it.
+    """
+    if not host_threads() or ("numba" not in sys.modules and not (load and _depth > 0)):
         return False
     try:
         from . import array_heap
@@ -172,6 +185,17 @@ def use_array_heap_here() -> bool:
         return array_heap.use_on_this_thread()
     except Exception:  # noqa: BLE001 - an unexpected numpy: glibc serves, as before
         return False
+
+
+def array_heap_on_pool_thread() -> None:
+    """On a pool's thread, before a task: the region from now on
+    (:func:`use_array_heap_here`) if this thread does not use it yet and may;
+    numba may have come since the thread started."""
+    if host_threads() and "numba" in sys.modules:
+        from . import array_heap
+
+        if not array_heap.in_use_here():
+            use_array_heap_here()
 
 
 def keep_seconds() -> float:
@@ -217,7 +241,10 @@ def reusing_freed_memory() -> Iterator[None]:
     if _LIBC is None:
         yield
         return
-    on_region = use_array_heap_here()
+    from . import array_heap
+
+    uses_before = array_heap.uses_here()
+    use_array_heap_here()
     with _lock:
         _depth += 1
         if _release_timer is not None:  # a run within the time kept: the heap serves it
@@ -231,9 +258,7 @@ def reusing_freed_memory() -> Iterator[None]:
     try:
         yield
     finally:
-        if on_region:
-            from . import array_heap
-
+        while array_heap.uses_here() > uses_before:  # the block's own, at its start and later
             array_heap.stop_on_this_thread()
         with _lock:
             _depth -= 1

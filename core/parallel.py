@@ -28,7 +28,7 @@ from typing import Callable, Iterable, Iterator, Sequence, TypeVar
 
 import numpy as np
 
-from .heap import use_array_heap_here
+from .heap import array_heap_on_pool_thread
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -72,7 +72,7 @@ def map_blocks(func: Callable[[T], R], blocks: Iterable[T]) -> list[R]:
     blocks = list(blocks)
     if not on_pool(blocks):
         return [func(block) for block in blocks]
-    return list(_executor(thread_count()).map(func, blocks))
+    return list(_executor(thread_count()).map(_on_pool(func), blocks))
 
 
 def map_ahead(func: Callable[[T], R], blocks: Iterable[T]) -> Iterator[R]:
@@ -92,14 +92,14 @@ def map_ahead(func: Callable[[T], R], blocks: Iterable[T]) -> Iterator[R]:
     if not on_pool(blocks):
         yield from (func(block) for block in blocks)
         return
-    pool = _executor(thread_count())
+    pool, task = _executor(thread_count()), _on_pool(func)
     waiting = iter(blocks)
-    running = deque(pool.submit(func, block) for block in islice(waiting, 2 * thread_count()))
+    running = deque(pool.submit(task, block) for block in islice(waiting, 2 * thread_count()))
     while running:
         result = running.popleft().result()
         following = next(waiting, _DONE)
         if following is not _DONE:
-            running.append(pool.submit(func, following))
+            running.append(pool.submit(task, following))
         yield result
 
 
@@ -125,9 +125,18 @@ def in_background(func: Callable[..., R], *args) -> Future:
         return future
     with _lock:
         if _background is None:
-            _background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-background",
-                                             initializer=use_array_heap_here)
-    return _background.submit(func, *args)
+            _background = ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-background")
+    return _background.submit(_on_pool(func), *args)
+
+
+def _on_pool(func: Callable[..., R]) -> Callable[..., R]:
+    """``func`` as a task of a pool's thread, which first makes its numpy
+    arrays in the array heap if it may (:func:`core.heap.array_heap_on_pool_thread`)."""
+    def task(*args):
+        array_heap_on_pool_thread()
+        return func(*args)
+
+    return task
 
 
 def on_pool(blocks: Sequence) -> bool:
@@ -264,6 +273,5 @@ def _executor(threads: int) -> ThreadPoolExecutor:
     with _lock:
         pool = _pools.get(threads)
         if pool is None:
-            pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox",
-                                                        initializer=use_array_heap_here)
+            pool = _pools[threads] = ThreadPoolExecutor(max_workers=threads, thread_name_prefix="urbanvox")
         return pool

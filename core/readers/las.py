@@ -35,6 +35,7 @@ import numpy as np
 import pyproj
 
 from .. import jit
+from ..heap import use_array_heap_here
 from ..crs import describe_crs, horizontal_crs, resolve_crs
 from ..errors import Cancelled, UrbanvoxError
 from ..heap import reusing_freed_memory
@@ -466,6 +467,10 @@ def read_point_clouds(
     # run will want them (core.jit.preload); the reader's own runs from the
     # chunk after it is loaded.
     jit.preload(most)
+    if most >= jit.WORTHWHILE:
+        # In a host's thread, a run this large makes its arrays in the array
+        # heap, the points read first (core.heap).
+        use_array_heap_here(load=True)
     counts = np.zeros(256, dtype=np.int64)
     ground_rows, building_rows = _Rows(most), _Rows(most)
     g_codes = np.asarray(ground, dtype=np.uint8)
