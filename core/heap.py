@@ -172,8 +172,8 @@ def use_array_heap_here(load: bool = False) -> bool:
     reader about to make a large run's points, :mod:`core.readers.las`):
     the region's allocator is compiled with numba, and importing it for a
     small run cost more than the region gains there (Delft at 1 m through
-    ``qgis_process``, in turn: 2.49-2.75 s a run with it, 1.92-2.21 s
-    without). A run too small for the kernels makes no array as large as a
+    ``qgis_process``, five pairs in turn: 2.49-3.24 s a run with it,
+    1.92-2.57 s without). A run too small for the kernels makes no array as large as a
     thread's heap serves from fresh pages (64 MB). The run's
     :func:`reusing_freed_memory` ends the thread's uses made inside it.
     """

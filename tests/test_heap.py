@@ -253,3 +253,34 @@ def test_a_runs_memory_is_faulted_in_ahead_and_handed_back(process):
     assert nothing_again and stopped and released < 20
     started, ahead, taken, _, stopped, released = results["not"]
     assert not started and ahead < 20 and taken > 35_000 and stopped and released < 20
+
+
+_LAZY_PROBE = """
+import sys
+from core import array_heap, heap
+from core.parallel import map_blocks, thread_count
+
+assert heap.host_threads() and thread_count() > 1
+def on_region(_):
+    return array_heap.in_use_here()
+outside = heap.use_array_heap_here(load=True)  # not during a run: nothing
+with heap.reusing_freed_memory():  # a small run: numba never comes
+    small = ["numba" in sys.modules, array_heap.in_use_here(), any(map_blocks(on_region, range(8)))]
+with heap.reusing_freed_memory():  # a large one: the reader asks before its points
+    loaded = heap.use_array_heap_here(load=True)
+    large = [array_heap.in_use_here(), all(map_blocks(on_region, range(8)))]
+print(outside, small, loaded, large, array_heap.in_use_here())
+"""
+
+
+@pytest.mark.skipif(not array_heap.available(), reason="core.array_heap needs numba and numpy's headers")
+def test_a_hosts_small_run_does_not_load_numba_for_the_array_heap():
+    # The region's allocator is compiled with numba: a run too small for the
+    # kernels keeps glibc; a large one (the reader's load) and the pool's
+    # threads then take the region, and the run's end gives its thread back.
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "URBANVOX_THREADS": "2"}
+    env.pop("MALLOC_ARENA_MAX", None)
+    env.pop("URBANVOX_JIT", None)
+    out = subprocess.run([sys.executable, "-c", _LAZY_PROBE], cwd=ROOT, capture_output=True, text=True, env=env,
+                         check=True).stdout.strip()
+    assert out == "False [False, False, False] True [True, True] False"
