@@ -72,6 +72,11 @@ WORKER_ENVIRONMENT = {
     "NUMPY_MADVISE_HUGEPAGE": "0",
 }
 
+#: Blocks from this size up come from fresh pages in a thread's own glibc heap
+#: (its largest mmap threshold): a run whose estimate reaches it takes the
+#: array heap in a host's thread (:func:`use_array_heap_here`).
+THREAD_HEAP_FRESH = 64 << 20
+
 #: Seconds the heap is kept after the last run ends (:func:`keep_seconds`).
 KEEP_SECONDS = 60.0
 

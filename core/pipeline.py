@@ -42,7 +42,7 @@ from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
 from .grid import GridWindow, available_memory, check_face_memory, check_memory
 from .ground import GroundLevel, NearGround, column_ground_level
-from .heap import fault_in_ahead, reusing_freed_memory
+from .heap import THREAD_HEAP_FRESH, fault_in_ahead, reusing_freed_memory, use_array_heap_here
 from .manifold import make_well_composed, repair_height_field
 from .measure import block_face_split, extreme_per_block, measure_blocks
 from .neighbours import nearest_distance, point_index, search_of_first
@@ -259,6 +259,10 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
 
     grid = window.grid(h)
     needed = check_memory(grid.shape, params.voxel_size, params.max_memory, tile_hint=True)
+    if needed >= THREAD_HEAP_FRESH:
+        # In a host's thread (QGIS), arrays this large from the array heap
+        # (a large point cloud's reader asked already; a mesh's run asks here).
+        use_array_heap_here(load=True)
     # That memory's pages, where the heap does not hold them yet (a process's
     # first run), are faulted in meanwhile on a core the run leaves idle. At
     # most half the memory the run may use: the estimate is the guard's, on the
