@@ -130,6 +130,12 @@ class _MallInfo2(ctypes.Structure):
                                                       "fsmblks", "uordblks", "fordblks", "keepcost")]
 
 
+#: glibc's mallinfo2, or None (a C library too old to say what its heap holds free).
+_MALLINFO2 = getattr(_LIBC, "mallinfo2", None)
+if _MALLINFO2 is not None:
+    _MALLINFO2.restype = _MallInfo2
+
+
 def _set_huge_pages(enabled: bool) -> bool | None:
     """Turn numpy's huge-page requests on or off; the previous setting (None: not available)."""
     multiarray = getattr(getattr(np, "_core", None) or getattr(np, "core", None), "multiarray", None)
@@ -182,7 +188,7 @@ def use_array_heap_here(load: bool = False) -> bool:
     thread's heap serves from fresh pages (64 MB). The run's
     :func:`reusing_freed_memory` ends the thread's uses made inside it.
     """
-    if not host_threads() or ("numba" not in sys.modules and not (load and _depth > 0)):
+    if not _region_allowed(load):
         return False
     try:
         from . import array_heap
@@ -192,11 +198,16 @@ def use_array_heap_here(load: bool = False) -> bool:
         return False
 
 
+def _region_allowed(load: bool = False) -> bool:
+    """Whether :func:`use_array_heap_here` may take the region here (see there)."""
+    return host_threads() and ("numba" in sys.modules or (load and _depth > 0))
+
+
 def array_heap_on_pool_thread() -> None:
     """On a pool's thread, before a task: the region from now on
     (:func:`use_array_heap_here`) if this thread does not use it yet and may;
     numba may have come since the thread started."""
-    if host_threads() and "numba" in sys.modules:
+    if _region_allowed():
         from . import array_heap
 
         if not array_heap.in_use_here():
@@ -364,11 +375,9 @@ def _ranges_ahead(nbytes: int) -> list[tuple[int, int]]:
 
     if array_heap.in_use_here():
         return array_heap.ahead_of_top(nbytes, _AHEAD_MIN)
-    mallinfo2 = getattr(_LIBC, "mallinfo2", None)
-    if not _one_heap or mallinfo2 is None:  # another arena's heap, or a C library too old to say
+    if not _one_heap or _MALLINFO2 is None:  # another arena's heap, or a C library too old to say
         return []
-    mallinfo2.restype = _MallInfo2
-    want = nbytes - mallinfo2().fordblks
+    want = nbytes - _MALLINFO2().fordblks
     if want < _AHEAD_MIN:
         return []
     blocks = []

@@ -225,7 +225,6 @@ def _populate_works() -> bool:
     try:
         return heap._LIBC.madvise(address, 1 << 20, heap._MADV_POPULATE_WRITE) == 0
     finally:
-        del address
         area.close()
 
 
