@@ -17,11 +17,12 @@ SYSTEM_STAMP := .build/system.stamp
 VENV_STAMP := $(VENV)/.urbanvox-installed
 PLUGIN_STAMP := .qgis/.urbanvox-enabled
 
-.PHONY: help setup demo test bench package qgis-list clean distclean
+.PHONY: help setup demo test test-numpy2 bench package qgis-list clean distclean
 
 help:
 	@echo "make demo       set up (QGIS, .venv, plugin) and run both algorithms on a synthetic district"
 	@echo "make test       set up and run the whole test suite (core + QGIS)"
+	@echo "make test-numpy2  the core's tests on numpy 2 (newer QGIS), in .venv-numpy2, without QGIS"
 	@echo "make setup      only the setup: QGIS from apt, .venv with pinned deps, plugin enabled in .qgis/"
 	@echo "make bench      benchmarks: per-stage time, rate and memory, with baselines (BENCH_ARGS=--quick)"
 	@echo "make package    build dist/urbanvox-VERSION.zip, installable with Plugins > Install from ZIP"
@@ -65,6 +66,21 @@ demo: setup
 test: setup
 	$(ENV) URBANVOX_REQUIRE_QGIS=1 $(PYTHON) -m pytest tests $(PYTEST_ARGS)
 
+# The core on numpy 2, as newer distributions ship it beside QGIS: a venv of its own (no QGIS,
+# so tests/qgis is left out) and a copy of the sources, whose compiled kernels are cached apart
+# from those .venv made under numpy 1.
+NUMPY2_VENV := .venv-numpy2
+NUMPY2_COPY := .build/numpy2
+NUMPY2_ENV := URBANVOX_JIT=always PYTHONPATH=. URBANVOX_SHARED_DATA="$${URBANVOX_SHARED_DATA:-$(CURDIR)/../shared/data}"
+test-numpy2: | $(SYSTEM_STAMP)
+	test -x $(NUMPY2_VENV)/bin/python || $(SYSTEM_PYTHON) -m venv $(NUMPY2_VENV)
+	$(NUMPY2_VENV)/bin/python -m pip install --quiet --disable-pip-version-check "numpy>=2" \
+	  -r requirements-dev.txt matplotlib
+	rm -rf $(NUMPY2_COPY) && mkdir -p $(NUMPY2_COPY)
+	git ls-files -z --cached --others --exclude-standard | xargs -0 cp --parents -t $(NUMPY2_COPY)
+	cd $(NUMPY2_COPY) && $(NUMPY2_ENV) $(CURDIR)/$(NUMPY2_VENV)/bin/python -m pytest tests --ignore=tests/qgis \
+	  -p no:cacheprovider $(PYTEST_ARGS)
+
 package: $(TRANSLATIONS)
 	$(SYSTEM_PYTHON) scripts/package.py
 
@@ -75,7 +91,7 @@ clean:
 	rm -rf .build .qgis demo-output .pytest_cache dist
 
 distclean: clean
-	rm -rf $(VENV) constraints.txt
+	rm -rf $(VENV) $(NUMPY2_VENV) constraints.txt
 
 BENCH_ARGS ?=
 

@@ -137,7 +137,7 @@ def enclose_air(labels: np.ndarray) -> int:
     Examples
     --------
     >>> lab = np.full((3, 3, 3), BUILDING, np.uint8); lab[1, 1, 0] = AIR; lab[:, :, 2] = AIR
-    >>> enclose_air(lab), lab[1, 1, 0] == BUILDING
+    >>> enclose_air(lab), bool(lab[1, 1, 0] == BUILDING)
     (1, True)
     """
     from scipy.sparse import coo_matrix

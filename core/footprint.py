@@ -52,7 +52,7 @@ def column_outlines(columns: np.ndarray, block_ids: np.ndarray, corner: np.ndarr
     >>> ring = [(2, i, j) for i in range(3, 6) for j in range(3) if (i, j) != (4, 1)]
     >>> outlines = column_outlines(np.array([(1, 0, 0), (1, 1, 0), (1, 0, 1)] + ring), np.array([1, 2]),
     ...                            np.array([100.0, 200.0]), 2.0)
-    >>> [shapely.get_num_coordinates(g) for g in outlines], [g.area for g in outlines]
+    >>> [int(shapely.get_num_coordinates(g)) for g in outlines], [g.area for g in outlines]
     ([7, 10], [12.0, 32.0])
     >>> len(outlines[1].interiors)
     1

@@ -137,7 +137,7 @@ def column_ceiling(grid: VoxelGrid, ground_points: np.ndarray) -> np.ndarray:
     >>> g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (2, 1, 4))
     >>> pts = np.array([[0.5, 0.5, 1.0], [0.5, 0.5, 1.2], [0.5, 0.5, 1.1]])
     >>> ceiling = column_ceiling(g, pts)
-    >>> bool(1.2 <= ceiling[0, 0] < 1.3), ceiling[1, 0]
+    >>> bool(1.2 <= ceiling[0, 0] < 1.3), float(ceiling[1, 0])
     (True, -inf)
     """
     nx, ny, _ = grid.shape

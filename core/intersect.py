@@ -251,7 +251,7 @@ def _dilated(mask: np.ndarray) -> np.ndarray:
     Examples
     --------
     >>> mask = np.zeros((3, 4, 4), bool); mask[0, 0, 0] = True
-    >>> _dilated(mask)[:2, :3, :3].sum(), int(_dilated(mask).sum())
+    >>> int(_dilated(mask)[:2, :3, :3].sum()), int(_dilated(mask).sum())
     (8, 8)
     """
     mask = mask.copy()

@@ -167,6 +167,7 @@ def test_gmsh_meshes_the_zurich_stl(shared_data, tmp_path):
 
 def test_preview_png(result, tmp_path, monkeypatch, compiled):
     """A picture, the same with the compiled depth buffer and without."""
+    pytest.importorskip("matplotlib")  # QGIS ships it; a bare venv of the core may not
     compiled("preview_kernel")
     monkeypatch.setenv("URBANVOX_JIT", "always")
     path = result.write_preview(tmp_path / "city.png")

@@ -56,10 +56,10 @@ def test_unique_nodes_are_numpys(with_numpy, kernel, dtype, size, count):
     rng = np.random.default_rng(size + count)
     flat = rng.integers(0, size, (count // 4 + 1, 4)).astype(dtype)
     flat[0, :2] = [0, size - 1]
-    expected = np.unique(flat, return_inverse=True)
+    expected = np.unique(flat, return_inverse=True)  # numpy 2: the inverse has flat's shape
     tables = with_numpy(surface.unique_nodes, flat, size)
     used, inverse = kernel.unique_nodes(flat, size)
     assert np.array_equal(used, expected[0]) and np.array_equal(used, tables[0])
     # numpy's tables give flat's shape, its sort (a numbering much larger than flat) a flat intp.
     assert inverse.shape == flat.shape and inverse.dtype == np.int32
-    assert np.array_equal(inverse.ravel(), expected[1]) and np.array_equal(inverse.ravel(), tables[1].ravel())
+    assert np.array_equal(inverse.ravel(), expected[1].ravel()) and np.array_equal(inverse.ravel(), tables[1].ravel())
