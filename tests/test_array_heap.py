@@ -85,19 +85,24 @@ def test_contents_survive_any_order_of_allocations_and_frees(on_region):
         assert (array == value).all()
 
 
+def _free_sizes() -> list[int]:
+    """Sizes of the region's free ranges."""
+    kernel, state = array_heap._kernel, array_heap._state
+    return state[kernel.FIRST + 1:kernel.FIRST + 2 * int(state[kernel.COUNT]):2].tolist()
+
+
 def _take_free_ranges() -> list:
     """Arrays that take the region's free ranges of a large block or more,
     left by earlier tests (best fit: each one exactly), so that the next
-    arrays come from the region's top."""
-    kernel, state = array_heap._kernel, array_heap._state
-    sizes = state[kernel.FIRST + 1:kernel.FIRST + 2 * int(state[kernel.COUNT]):2]
-    return [np.empty(int(size) - kernel.HEADER, np.uint8) for size in sizes if size >= kernel.LARGE]
+    large arrays come from the region's top."""
+    header = array_heap._kernel.HEADER
+    return [np.empty(size - header, np.uint8) for size in _free_sizes() if size >= array_heap._kernel.LARGE]
 
 
 def test_freed_ranges_merge_and_serve_the_next_arrays(on_region):
     held = _take_free_ranges()
+    assert max(_free_sizes(), default=0) < array_heap._kernel.LARGE
     top, free = array_heap.region_in_use()
-    assert free < array_heap._kernel.LARGE
     a, b, c = (np.ones(8 * MB // 8) for _ in range(3))  # 8 MB each, one after another in the region
     grown, _ = array_heap.region_in_use()
     assert grown - top >= 3 * 8 * MB
