@@ -22,7 +22,7 @@ PLUGIN_STAMP := .qgis/.urbanvox-enabled
 help:
 	@echo "make demo       set up (QGIS, .venv, plugin) and run both algorithms on a synthetic district"
 	@echo "make test       set up and run the whole test suite (core + QGIS)"
-	@echo "make test-numpy2  the core's tests on numpy 2 (newer QGIS), in .venv-numpy2, without QGIS"
+	@echo "make test-numpy2  the core's tests on numpy 2 (newer distributions), in .venv-numpy2, no QGIS"
 	@echo "make setup      only the setup: QGIS from apt, .venv with pinned deps, plugin enabled in .qgis/"
 	@echo "make bench      benchmarks: per-stage time, rate and memory, with baselines (BENCH_ARGS=--quick)"
 	@echo "make package    build dist/urbanvox-VERSION.zip, installable with Plugins > Install from ZIP"
@@ -77,7 +77,8 @@ test-numpy2: | $(SYSTEM_STAMP)
 	$(NUMPY2_VENV)/bin/python -m pip install --quiet --disable-pip-version-check "numpy>=2" \
 	  -r requirements-dev.txt matplotlib
 	rm -rf $(NUMPY2_COPY) && mkdir -p $(NUMPY2_COPY)
-	git ls-files -z --cached --others --exclude-standard | xargs -0 cp --parents -t $(NUMPY2_COPY)
+	tar -c --exclude=./.git --exclude='./.venv*' --exclude=./.build --exclude=./.qgis --exclude=./demo-output \
+	  --exclude=./dist --exclude=./test-artifacts --exclude=__pycache__ . | tar -x -C $(NUMPY2_COPY)
 	cd $(NUMPY2_COPY) && $(NUMPY2_ENV) $(CURDIR)/$(NUMPY2_VENV)/bin/python -m pytest tests --ignore=tests/qgis \
 	  -p no:cacheprovider $(PYTEST_ARGS)
 

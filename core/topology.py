@@ -92,10 +92,11 @@ def stable_order(key: np.ndarray, n_keys: int) -> np.ndarray:
 
 def dense_unique(values: np.ndarray, return_inverse: bool = False):
     """``np.unique(values, return_inverse=...)`` of integers of a small range
-    (region ids, region pairs): a mark per value of the range and a running
-    count, in linear time, where the range is no larger than twice the
-    values (else ``np.unique``). The 9.7 M region ids of the 1 km city's
-    triangles: 0.41 s by a sort.
+    (region ids, region pairs), the inverse flat whatever the shape of
+    ``values`` (as numpy 1 gives it; numpy 2's takes their shape): a mark
+    per value of the range and a running count, in linear time, where the
+    range is no larger than twice the values (else ``np.unique``). The
+    9.7 M region ids of the 1 km city's triangles: 0.41 s by a sort.
 
     Examples
     --------
