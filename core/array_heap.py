@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from . import jit
-from .heap import _glibc
+from .heap import _glibc, numpy_core
 
 _lock = threading.Lock()
 _local = threading.local()
@@ -70,7 +70,7 @@ def _api_index(name: str) -> int | None:
 
 
 def _api_capsule():
-    core = getattr(np, "_core", None) or np.core
+    core = numpy_core()
     return getattr(core, "_multiarray_umath", None) and core._multiarray_umath._ARRAY_API
 
 
@@ -177,12 +177,19 @@ def return_free_pages() -> int:
     return 0 if _state is None else _kernel.return_free_pages(_state)
 
 
+def free_sizes() -> list[int]:
+    """Bytes of each of the region's free ranges (for tests and benchmarks)."""
+    if _state is None:
+        return []
+    first, count = _kernel.FIRST, int(_state[_kernel.COUNT])
+    return _state[first + 1:first + 2 * count:2].tolist()
+
+
 def region_in_use() -> tuple[int, int]:
     """Bytes of the region below its top, and in its free ranges (for tests and benchmarks)."""
     if _state is None:
         return 0, 0
-    first, count = _kernel.FIRST, int(_state[_kernel.COUNT])
-    return int(_state[_kernel.TOP]), int(_state[first + 1:first + 2 * count:2].sum())
+    return int(_state[_kernel.TOP]), sum(free_sizes())
 
 
 def ahead_of_top(nbytes: int, least: int) -> list[tuple[int, int]]:

@@ -136,9 +136,14 @@ if _MALLINFO2 is not None:
     _MALLINFO2.restype = _MallInfo2
 
 
+def numpy_core():
+    """numpy's core package: ``np._core`` (numpy 2), else ``np.core`` (None in neither)."""
+    return getattr(np, "_core", None) or getattr(np, "core", None)
+
+
 def _set_huge_pages(enabled: bool) -> bool | None:
     """Turn numpy's huge-page requests on or off; the previous setting (None: not available)."""
-    multiarray = getattr(getattr(np, "_core", None) or getattr(np, "core", None), "multiarray", None)
+    multiarray = getattr(numpy_core(), "multiarray", None)
     setter = getattr(multiarray, "_set_madvise_hugepage", None)
     return None if setter is None else bool(setter(enabled))
 

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from core import array_heap
+from core.heap import numpy_core
 
 pytestmark = pytest.mark.skipif(not array_heap.available(), reason="core.array_heap needs numba and numpy's headers")
 
@@ -12,7 +13,7 @@ MB = 1 << 20
 
 
 def _handler_name(array=None) -> str:
-    get = (getattr(np, "_core", None) or np.core).multiarray.get_handler_name  # numpy 2 renamed np.core
+    get = numpy_core().multiarray.get_handler_name
     return get() if array is None else get(array)
 
 
@@ -85,23 +86,17 @@ def test_contents_survive_any_order_of_allocations_and_frees(on_region):
         assert (array == value).all()
 
 
-def _free_sizes() -> list[int]:
-    """Sizes of the region's free ranges."""
-    kernel, state = array_heap._kernel, array_heap._state
-    return state[kernel.FIRST + 1:kernel.FIRST + 2 * int(state[kernel.COUNT]):2].tolist()
-
-
 def _take_free_ranges() -> list:
     """Arrays that take the region's free ranges of a large block or more,
     left by earlier tests (best fit: each one exactly), so that the next
     large arrays come from the region's top."""
     header = array_heap._kernel.HEADER
-    return [np.empty(size - header, np.uint8) for size in _free_sizes() if size >= array_heap._kernel.LARGE]
+    return [np.empty(size - header, np.uint8) for size in array_heap.free_sizes() if size >= array_heap._kernel.LARGE]
 
 
 def test_freed_ranges_merge_and_serve_the_next_arrays(on_region):
     held = _take_free_ranges()
-    assert max(_free_sizes(), default=0) < array_heap._kernel.LARGE
+    assert max(array_heap.free_sizes(), default=0) < array_heap._kernel.LARGE
     top, free = array_heap.region_in_use()
     a, b, c = (np.ones(8 * MB // 8) for _ in range(3))  # 8 MB each, one after another in the region
     grown, _ = array_heap.region_in_use()

@@ -35,10 +35,9 @@ import numpy as np
 import pyproj
 
 from .. import jit
-from ..heap import use_array_heap_here
 from ..crs import describe_crs, horizontal_crs, resolve_crs
 from ..errors import Cancelled, UrbanvoxError
-from ..heap import reusing_freed_memory
+from ..heap import reusing_freed_memory, use_array_heap_here
 from ..vectors import all_finite, finite_rows
 
 __all__ = ["LabelledPoints", "parse_classes", "read_point_clouds", "CLASS_NAMES", "CHUNK_POINTS"]
