@@ -144,6 +144,35 @@ def test_thresholds_that_drop_every_block_give_empty_layers(processing, district
     assert any("No building block" in warning for warning in feedback.warnings)
 
 
+def test_temporary_outputs_are_geopackage_files_not_memory_layers(processing, district, tmp_path):
+    # A city's block surfaces as a memory layer hold 4-5 times their WKB in
+    # QGIS's geometry objects for as long as the layer is open (the 1 km
+    # synthetic city: a qgis_process run's peak 3.9 GB, 2.4 GB to a file).
+    from qgis.core import QgsProcessing, QgsVectorLayer
+
+    results = processing.run(
+        "urbanvox:reconstructfrompointcloud",
+        {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "OUTPUT_BLOCKS": QgsProcessing.TEMPORARY_OUTPUT,
+         "OUTPUT_FOOTPRINTS": QgsProcessing.TEMPORARY_OUTPUT, "OUTPUT_GROUND": QgsProcessing.TEMPORARY_OUTPUT},
+    )
+    for name in ("OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "OUTPUT_GROUND"):
+        path = results[name]
+        assert isinstance(path, str) and path.endswith(".gpkg") and Path(path).is_file(), (name, path)
+        layer = QgsVectorLayer(path, name, "ogr")
+        assert layer.isValid() and layer.providerType() == "ogr"
+        if name != "OUTPUT_GROUND":
+            assert layer.featureCount() == results["BLOCK_COUNT"] > 0
+        else:
+            assert layer.featureCount() > 0
+    # A memory layer asked for by name is still made.
+    memory = processing.run(
+        "urbanvox:reconstructfrompointcloud",
+        {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "OUTPUT_BLOCKS": "memory:", "OUTPUT_FOOTPRINTS": "memory:"},
+    )
+    assert memory["OUTPUT_BLOCKS"].providerType() == "memory"
+    assert memory["OUTPUT_BLOCKS"].featureCount() == memory["BLOCK_COUNT"] == results["BLOCK_COUNT"]
+
+
 def test_crs_parameter_overrides_a_missing_header_crs(processing, district, tmp_path):
     las = tmp_path / "no_crs.las"
     district.district.write_las(las, density=2.0, crs=False)
