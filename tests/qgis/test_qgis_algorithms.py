@@ -234,10 +234,11 @@ def test_smoothed_outputs_ground_layer_mesh_file_and_preview(processing, distric
          **gpkg_outputs(gpkg), "OUTPUT_GROUND": gpkg_sink(gpkg, "ground"), "OUTPUT_MESH": str(mesh)},
         feedback=feedback,
     )
-    # Writing the outputs reports its own steps, after the method's, and the bar ends full.
+    # Writing the outputs reports its own steps, after the method's, and the bar ends full (the
+    # mesh file and its picture are written meanwhile, on a thread of their own).
     outputs_from = feedback.texts.index("Writing the blocks and footprints")
     assert feedback.texts[outputs_from:] == ["Writing the blocks and footprints", "Writing the ground",
-                                             "Writing the mesh district.obj", "Drawing the preview"]
+                                             "Writing the mesh district.obj"]
     assert feedback.progress == sorted(feedback.progress) and feedback.progress[-1] == pytest.approx(100.0)
     _, blocks = read_layer(gpkg, "blocks")
     assert len(blocks) == results["BLOCK_COUNT"] > 40
@@ -251,6 +252,24 @@ def test_smoothed_outputs_ground_layer_mesh_file_and_preview(processing, distric
     assert groups.count("ground") == 1 and groups.count("air") == 1 and len(groups) == len(blocks) + 2
     preview = results["OUTPUT_PREVIEW"]
     assert preview.endswith(".png") and open(preview, "rb").read(4) == b"\x89PNG"
+
+
+def test_a_mesh_file_that_cannot_be_written_is_reported_after_the_layers(processing, district, tmp_path):
+    # The mesh file is written on a thread of its own while the layers are:
+    # its error comes once they are written, naming the file, and no thread
+    # of it is left behind.
+    import threading
+
+    from qgis.core import QgsProcessingException
+
+    gpkg = tmp_path / "out.gpkg"
+    mesh = tmp_path / "mesh.msh"
+    mesh.mkdir()  # a folder where the file should go
+    with pytest.raises(QgsProcessingException, match="Could not write .*mesh.msh"):
+        processing.run("urbanvox:reconstructfrompointcloud",
+                       {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, **gpkg_outputs(gpkg), "OUTPUT_MESH": str(mesh)})
+    assert len(read_layer(gpkg, "blocks")[1]) == len(read_layer(gpkg, "footprints")[1]) > 0
+    assert not any(thread.name.startswith("urbanvox-mesh") for thread in threading.enumerate())
 
 
 def test_outputs_load_styled_by_height_with_a_3d_renderer(processing, district, tmp_path):
