@@ -432,17 +432,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
     def writeOutputs(self, result, parameters, context, feedback):  # noqa: N802
         # A city's layers, mesh and picture take a while after the method: they have their share
         # of the progress bar.
-        def step(percent, text):
-            feedback.setProgress(percent)
-            feedback.setProgressText(text)
-
-        step(_RECONSTRUCTION_PERCENT, self.tr("Writing the blocks and footprints"))
-        rows = result.block_rows()
-        crs = QgsCoordinateReferenceSystem.fromWkt(result.crs.to_wkt())
-        kinds = field_kinds(rows)
-        fields = block_fields(kinds)
-        attributes = [block_attributes(row, kinds) for row in rows]
-        outputs, destinations = {}, {}
+        feedback.setProgress(_RECONSTRUCTION_PERCENT)
+        feedback.setProgressText(self.tr("Writing the blocks and footprints"))
+        outputs = {}
         mesh_path = self.parameterAsFileOutput(parameters, self.OUTPUT_MESH, context)
         binary = self.parameterAsBoolean(parameters, self.MESH_BINARY, context)
         # The mesh file and its picture are written on a thread of their own
@@ -451,38 +443,10 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         # after 5.4 s of layers. Leaving waits for it, whatever the layers did.
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-mesh") as mesh_thread:
             mesh_written = mesh_thread.submit(self._write_mesh, result, mesh_path, binary) if mesh_path else None
-            # The layers' geometries are made on a thread of their own while this
-            # one writes them (core.wkb, then QGIS's parse; see .geometries): the
-            # 1 km synthetic city's three layers into GeoPackages (550 MB of WKB)
-            # took 9.4 s one step after the other, 5.5-5.8 s so.
-            sources = [result.block_surface_wkb, result.footprint_wkb]
-            if parameters.get(self.OUTPUT_GROUND):
-                sources.append(result.ground_surface_wkb)
-            with GeometryFeed(*sources) as feed:
-                # One layer after the other, each closed before the next is opened:
-                # several outputs are often layers of one GeoPackage, and two open
-                # writers of one file can lose a layer when they commit.
-                for layer, (name, wkb_type, percent) in enumerate((
-                        (self.OUTPUT_BLOCKS, MULTIPOLYGON_Z, (_RECONSTRUCTION_PERCENT, 87.0)),
-                        (self.OUTPUT_FOOTPRINTS, POLYGON, (87.0, 88.0)))):
-                    features = ((attributes[i] if i < len(attributes) else [None] * len(kinds), geometry)
-                                for i, geometry in enumerate(feed.layer(layer)))
-                    destinations[name], count = self._write_layer(parameters, name, context, fields, wkb_type, crs,
-                                                                  features, feed, feedback, percent, len(rows))
-                    if count != len(rows):
-                        raise QgsProcessingException(f"Internal error: {len(rows)} blocks, {count} features in {name}.")
-                if len(sources) == 3:
-                    step(88.0, self.tr("Writing the ground"))
-                    ground_fields = QgsFields()
-                    ground_fields.append(make_field("tile", "int"))
-                    tiles = (([tile], geometry) for tile, geometry in enumerate(feed.layer(2)))
-                    written, _ = self._write_layer(parameters, self.OUTPUT_GROUND, context, ground_fields,
-                                                   MULTIPOLYGON_Z, crs, tiles, feed, feedback, (88.0, 92.0), 0,
-                                                   optional=True)
-                    if written is not None:
-                        outputs[self.OUTPUT_GROUND] = written
+            outputs.update(self._write_layers(result, parameters, context, feedback))
             if mesh_written is not None:
-                step(92.0, self.tr("Writing the mesh {}").format(os.path.basename(mesh_path)))
+                feedback.setProgress(92.0)
+                feedback.setProgressText(self.tr("Writing the mesh {}").format(os.path.basename(mesh_path)))
                 try:
                     preview = mesh_written.result()
                 except Exception as err:  # UrbanvoxError, or an I/O error: say which file
@@ -495,16 +459,52 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         volume = float(result.summary["total_volume"])
         feedback.setProgress(100.0)
         feedback.pushInfo(f"{count} building blocks, total volume {volume:.1f} m³.")
-        style_on_load(context, destinations[self.OUTPUT_BLOCKS], style_blocks)
-        style_on_load(context, destinations[self.OUTPUT_FOOTPRINTS], style_footprints)
+        style_on_load(context, outputs[self.OUTPUT_BLOCKS], style_blocks)
+        style_on_load(context, outputs[self.OUTPUT_FOOTPRINTS], style_footprints)
         style_on_load(context, outputs.get(self.OUTPUT_GROUND), style_ground)
-        outputs.update({
-            self.OUTPUT_BLOCKS: destinations[self.OUTPUT_BLOCKS],
-            self.OUTPUT_FOOTPRINTS: destinations[self.OUTPUT_FOOTPRINTS],
-            self.BLOCK_COUNT: count,
-            self.TOTAL_VOLUME: volume,
-        })
+        outputs.update({self.BLOCK_COUNT: count, self.TOTAL_VOLUME: volume})
         return outputs
+
+    def _write_layers(self, result, parameters, context, feedback):
+        """Write the blocks, footprints and (if asked for) ground layers; returns their destinations."""
+        rows = result.block_rows()
+        crs = QgsCoordinateReferenceSystem.fromWkt(result.crs.to_wkt())
+        kinds = field_kinds(rows)
+        fields = block_fields(kinds)
+        attributes = [block_attributes(row, kinds) for row in rows]
+        destinations = {}
+        # The layers' geometries are made on a thread of their own while this
+        # one writes them (core.wkb, then QGIS's parse; see .geometries): the
+        # 1 km synthetic city's three layers into GeoPackages (550 MB of WKB)
+        # took 9.4 s one step after the other, 5.5-5.8 s so.
+        sources = [result.block_surface_wkb, result.footprint_wkb]
+        if parameters.get(self.OUTPUT_GROUND):
+            sources.append(result.ground_surface_wkb)
+        with GeometryFeed(*sources) as feed:
+            # One layer after the other, each closed before the next is opened:
+            # several outputs are often layers of one GeoPackage, and two open
+            # writers of one file can lose a layer when they commit.
+            for layer, (name, wkb_type, percent) in enumerate((
+                    (self.OUTPUT_BLOCKS, MULTIPOLYGON_Z, (_RECONSTRUCTION_PERCENT, 87.0)),
+                    (self.OUTPUT_FOOTPRINTS, POLYGON, (87.0, 88.0)))):
+                features = ((attributes[i] if i < len(attributes) else [None] * len(kinds), geometry)
+                            for i, geometry in enumerate(feed.layer(layer)))
+                destinations[name], count = self._write_layer(parameters, name, context, fields, wkb_type, crs,
+                                                              features, feed, feedback, percent, len(rows))
+                if count != len(rows):
+                    raise QgsProcessingException(f"Internal error: {len(rows)} blocks, {count} features in {name}.")
+            if len(sources) == 3:
+                feedback.setProgress(88.0)
+                feedback.setProgressText(self.tr("Writing the ground"))
+                ground_fields = QgsFields()
+                ground_fields.append(make_field("tile", "int"))
+                tiles = (([tile], geometry) for tile, geometry in enumerate(feed.layer(2)))
+                written, _ = self._write_layer(parameters, self.OUTPUT_GROUND, context, ground_fields,
+                                               MULTIPOLYGON_Z, crs, tiles, feed, feedback, (88.0, 92.0), 0,
+                                               optional=True)
+                if written is not None:
+                    destinations[self.OUTPUT_GROUND] = written
+        return destinations
 
     def _write_layer(self, parameters, name, context, fields, wkb_type, crs, rows, feed, feedback, percent, count,
                      optional=False):
