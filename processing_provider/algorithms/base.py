@@ -251,9 +251,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         # Temporary outputs are GeoPackages in QGIS's temporary folder, not
         # memory layers: a memory layer holds its geometries as QGIS's objects,
         # 4-5 times their WKB, for as long as it is open (a qgis_process run of
-        # the 1 km synthetic city: 3.9 GB at its peak against 2.4 GB, the
-        # method's own 2.3 GB). A memory layer asked for by name (``memory:``)
-        # is still made.
+        # the 1 km synthetic city: 3.8 GB at its peak against 2.3 GB, about the
+        # method's own). A memory layer asked for by name (``memory:``) is
+        # still made.
         for sink in (
             QgsProcessingParameterFeatureSink(self.OUTPUT_BLOCKS, self.tr("Building blocks (3D surfaces)"),
                                               VECTOR_POLYGON),

@@ -14,7 +14,8 @@ may hold many geometries before it writes them: a GeoPackage layer given as
 ``ogr:dbname=... table=...`` goes through QGIS's layer exporter, which
 buffers 200 features; for the 1 km synthetic city's blocks, 400 MB of the
 feed thread's heap. With a thread for each layer, the ground's took 450 MB
-more (a whole ``qgis_process run``: 3,179-3,237 MB at its peak).
+more (the whole run in one QGIS process: 3,179-3,237 MB at its peak, 2,735
+MB with one thread).
 
 The feed's thread also frees the geometries once written (the writer hands
 them back): a geometry is many small C++ objects (a block's, 100 k

@@ -147,7 +147,7 @@ def test_thresholds_that_drop_every_block_give_empty_layers(processing, district
 def test_temporary_outputs_are_geopackage_files_not_memory_layers(processing, district, tmp_path):
     # A city's block surfaces as a memory layer hold 4-5 times their WKB in
     # QGIS's geometry objects for as long as the layer is open (the 1 km
-    # synthetic city: a qgis_process run's peak 3.9 GB, 2.4 GB to a file).
+    # synthetic city: a qgis_process run's peak 3.8 GB, 2.3 GB to a file).
     from qgis.core import QgsProcessing, QgsVectorLayer
 
     results = processing.run(
