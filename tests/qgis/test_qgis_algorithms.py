@@ -148,22 +148,32 @@ def test_temporary_outputs_are_geopackage_files_not_memory_layers(processing, di
     # A city's block surfaces as a memory layer hold 4-5 times their WKB in
     # QGIS's geometry objects for as long as the layer is open (the 1 km
     # synthetic city: a qgis_process run's peak 3.8 GB, 2.3 GB to a file).
-    from qgis.core import QgsProcessing, QgsVectorLayer
+    from qgis.core import QgsGraduatedSymbolRenderer, QgsProcessing, QgsProject
 
-    results = processing.run(
+    # As the dialog runs it with its default outputs: the layers load when it ends.
+    before = set(QgsProject.instance().mapLayers())
+    results = processing.runAndLoadResults(
         "urbanvox:reconstructfrompointcloud",
         {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "OUTPUT_BLOCKS": QgsProcessing.TEMPORARY_OUTPUT,
          "OUTPUT_FOOTPRINTS": QgsProcessing.TEMPORARY_OUTPUT, "OUTPUT_GROUND": QgsProcessing.TEMPORARY_OUTPUT},
     )
-    for name in ("OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "OUTPUT_GROUND"):
-        path = results[name]
-        assert isinstance(path, str) and path.endswith(".gpkg") and Path(path).is_file(), (name, path)
-        layer = QgsVectorLayer(path, name, "ogr")
-        assert layer.isValid() and layer.providerType() == "ogr"
-        if name != "OUTPUT_GROUND":
-            assert layer.featureCount() == results["BLOCK_COUNT"] > 0
-        else:
-            assert layer.featureCount() > 0
+    loaded = {layer.source(): layer for layer_id, layer in QgsProject.instance().mapLayers().items()
+              if layer_id not in before}
+    try:
+        for name in ("OUTPUT_BLOCKS", "OUTPUT_FOOTPRINTS", "OUTPUT_GROUND"):
+            path = results[name]
+            assert isinstance(path, str) and path.endswith(".gpkg") and Path(path).is_file(), (name, path)
+            layer = loaded[path]
+            assert layer.isValid() and layer.providerType() == "ogr"
+            if name != "OUTPUT_GROUND":
+                assert layer.featureCount() == results["BLOCK_COUNT"] > 0
+            else:
+                assert layer.featureCount() > 0
+        blocks = loaded[results["OUTPUT_BLOCKS"]]
+        assert blocks.name() == "Building blocks (3D surfaces)"
+        assert isinstance(blocks.renderer(), QgsGraduatedSymbolRenderer) and blocks.renderer3D() is not None
+    finally:
+        QgsProject.instance().removeMapLayers([layer.id() for layer in loaded.values()])
     # A memory layer asked for by name is still made.
     memory = processing.run(
         "urbanvox:reconstructfrompointcloud",
