@@ -439,8 +439,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         binary = self.parameterAsBoolean(parameters, self.MESH_BINARY, context)
         # The mesh file and its picture are written on a thread of their own
         # while this one writes the layers (QGIS's and GDAL's C++, the GIL
-        # released): the 1 km synthetic city's mesh and preview took 4.9 s
-        # after 5.4 s of layers. Leaving waits for it, whatever the layers did.
+        # released): the 1 km synthetic city's outputs with a .msh took
+        # 8.3-9.4 s in a qgis_process run one after the other, 7.1-8.2 s so.
+        # Leaving waits for it, whatever the layers did.
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-mesh") as mesh_thread:
             mesh_written = mesh_thread.submit(self._write_mesh, result, mesh_path, binary) if mesh_path else None
             outputs.update(self._write_layers(result, parameters, context, feedback))
