@@ -6,7 +6,8 @@ picture (three samples per pixel; its centroid when it is smaller than a
 pixel), and every pixel takes the colour of its nearest sample. A city has
 millions of faces about a pixel large: drawing them as polygons with
 matplotlib took longer than the reconstruction. The panels are
-laid out and written with matplotlib's Agg backend (no display needed).
+laid out and written on a matplotlib figure of their own, on its Agg canvas
+(no display needed, and the host's pyplot untouched).
 """
 from __future__ import annotations
 
@@ -287,19 +288,22 @@ def write_preview(path: str | Path, panels: list[tuple[SurfaceModel, str]],
     block_heights : dict
         Height (m) of every block id, for the colours.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
+    # A figure of its own on the Agg canvas, not pyplot's: the host's backend
+    # and open figures stay as they were (pyplot's switch of backend closes
+    # them all), and QGIS draws this on a thread of its own.
     from matplotlib import cm
-    from matplotlib import pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.colors import Normalize
+    from matplotlib.figure import Figure
 
     vmax = max(block_heights.values(), default=1.0)
-    fig, axes = plt.subplots(1, len(panels), figsize=(7 * len(panels), 6), dpi=110, squeeze=False)
+    fig = Figure(figsize=(7 * len(panels), 6), dpi=110)
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(1, len(panels), squeeze=False)
     for ax, (model, title) in zip(axes[0], panels):
         _panel(ax, model, block_heights, vmax, title)
-    mappable = cm.ScalarMappable(cmap="viridis", norm=matplotlib.colors.Normalize(0, vmax))
+    mappable = cm.ScalarMappable(cmap="viridis", norm=Normalize(0, vmax))
     fig.colorbar(mappable, ax=axes[0].tolist(), shrink=0.6, label="block height (m)")
     path = Path(path)
     fig.savefig(path, bbox_inches="tight")
-    plt.close(fig)
     return path

@@ -177,6 +177,26 @@ def test_preview_png(result, tmp_path, monkeypatch, compiled):
     assert result.write_preview(tmp_path / "numpy.png").read_bytes() == path.read_bytes()
 
 
+def test_preview_leaves_matplotlib_as_the_host_had_it(result, tmp_path):
+    """The picture is drawn on a figure of its own: QGIS, other plugins or a
+    notebook keep their backend and their open figures (pyplot's switch to
+    Agg closed every figure, and the picture is drawn on a thread of its own
+    in QGIS, where pyplot's global state is shared with the GUI's)."""
+    matplotlib = pytest.importorskip("matplotlib")
+    from matplotlib import pyplot as plt
+
+    backend = matplotlib.get_backend()
+    try:
+        matplotlib.use("svg")
+        figure = plt.figure()
+        result.write_preview(tmp_path / "city.png")
+        assert matplotlib.get_backend() == "svg"
+        assert plt.get_fignums() == [figure.number]
+    finally:
+        plt.close("all")
+        matplotlib.use(backend)
+
+
 def _face_parts(faces, n_nodes):
     """Parts of faces connected through shared nodes, numbered by first face (reference)."""
     from scipy.sparse import coo_matrix

@@ -261,7 +261,7 @@ def test_smoothed_outputs_ground_layer_mesh_file_and_preview(processing, distric
     groups = [line.split()[1] for line in mesh.read_text().splitlines() if line.startswith("g ")]
     assert groups.count("ground") == 1 and groups.count("air") == 1 and len(groups) == len(blocks) + 2
     preview = results["OUTPUT_PREVIEW"]
-    assert preview.endswith(".png") and open(preview, "rb").read(4) == b"\x89PNG"
+    assert preview.endswith(".png") and Path(preview).read_bytes()[:4] == b"\x89PNG"
 
 
 def test_a_mesh_file_that_cannot_be_written_is_reported_after_the_layers(processing, district, tmp_path):
