@@ -434,7 +434,6 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         # of the progress bar.
         feedback.setProgress(_RECONSTRUCTION_PERCENT)
         feedback.setProgressText(self.tr("Writing the blocks and footprints"))
-        outputs = {}
         mesh_path = self.parameterAsFileOutput(parameters, self.OUTPUT_MESH, context)
         binary = self.parameterAsBoolean(parameters, self.MESH_BINARY, context)
         # The mesh file and its picture are written on a thread of their own
@@ -444,7 +443,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         # Leaving waits for it, whatever the layers did.
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-mesh") as mesh_thread:
             mesh_written = mesh_thread.submit(self._write_mesh, result, mesh_path, binary) if mesh_path else None
-            outputs.update(self._write_layers(result, parameters, context, feedback))
+            outputs = self._write_layers(result, parameters, context, feedback)
             if mesh_written is not None:
                 feedback.setProgress(92.0)
                 feedback.setProgressText(self.tr("Writing the mesh {}").format(os.path.basename(mesh_path)))
@@ -478,9 +477,8 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         # one writes them (core.wkb, then QGIS's parse; see .geometries): the
         # 1 km synthetic city's three layers into GeoPackages (550 MB of WKB)
         # took 9.4 s one step after the other, 5.5-5.8 s so.
-        sources = [result.block_surface_wkb, result.footprint_wkb]
-        if parameters.get(self.OUTPUT_GROUND):
-            sources.append(result.ground_surface_wkb)
+        ground = bool(parameters.get(self.OUTPUT_GROUND))
+        sources = [result.block_surface_wkb, result.footprint_wkb] + ([result.ground_surface_wkb] if ground else [])
         with GeometryFeed(*sources) as feed:
             # One layer after the other, each closed before the next is opened:
             # several outputs are often layers of one GeoPackage, and two open
@@ -494,7 +492,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                                                               features, feed, feedback, percent, len(rows))
                 if count != len(rows):
                     raise QgsProcessingException(f"Internal error: {len(rows)} blocks, {count} features in {name}.")
-            if len(sources) == 3:
+            if ground:
                 feedback.setProgress(88.0)
                 feedback.setProgressText(self.tr("Writing the ground"))
                 ground_fields = QgsFields()
