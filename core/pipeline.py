@@ -20,15 +20,16 @@ per-block mesh measures                  :mod:`core.measure`
 =======================================  ==========================  ======
 
 Every function takes ``progress(fraction, message)`` and ``is_cancelled()``
-callables; a cancelled run raises :class:`~core.errors.Cancelled` before
-anything is written.
+callables (:mod:`core.progress`: a message made of parts keeps them, for
+QGIS to translate); a cancelled run raises :class:`~core.errors.Cancelled`
+before anything is written.
 """
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
@@ -47,6 +48,7 @@ from .manifold import make_well_composed, repair_height_field
 from .measure import block_face_split, extreme_per_block, measure_blocks
 from .neighbours import nearest_distance, point_index, search_of_first
 from .parallel import in_background
+from .progress import CancelCheck, Progress, Text
 from .project import COLUMN_VOXELS, project_nodes
 from .reconstruction import Reconstruction
 from .smooth import NodeRoles, smooth
@@ -54,8 +56,6 @@ from .surface import SurfaceModel, region_volume
 from .tiles import TileOptions, reconstruct_tiled
 from .vectors import all_finite, finite_rows
 
-Progress = Callable[[float, str], None]
-CancelCheck = Callable[[], bool]
 
 
 @dataclass
@@ -354,7 +354,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     nodes = surface.nodes
     stats: dict = {}
     if params.smoothing_iterations > 0:
-        report(0.75, f"Smoothing ({params.smoothing_iterations} passes)")
+        report(0.75, Text("Smoothing ({} passes)", params.smoothing_iterations))
         nodes, stats["smoothing"] = smooth(surface, roles, params.smoothing_iterations,
                                            params.quality_threshold, is_cancelled)
         lap("smooth")
@@ -405,7 +405,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     split = block_face_split(mesh, nodes)
     measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance, split=split)
     lap("measure")
-    report(1.0, f"{len(table)} blocks")
+    report(1.0, Text("{} blocks", len(table)))
     stats["peak_rss_mb"] = peak_rss
     stats["n_points"] = {"ground": int(len(ground)), "building": int(len(building))}
     stats["n_voxels"] = int(grid.n_voxels)
@@ -423,7 +423,7 @@ def _reconstruct_clusters(ground, building, ground_cluster, building_cluster, cr
     for n, c in enumerate(wanted):
         def part_progress(fraction: float, message: str, n: int = n) -> None:
             if progress is not None:
-                progress((n + fraction) / len(wanted), f"Cluster {n + 1}/{len(wanted)}: {message}")
+                progress((n + fraction) / len(wanted), Text("Cluster {}/{}: {}", n + 1, len(wanted), message))
         own_ground = ground[ground_cluster == c]
         if len(own_ground) == 0:
             warnings.append(f"Skipped a cluster of {int((building_cluster == c).sum())} building points "

@@ -50,6 +50,7 @@ from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
 from .measure import BlockMeasures
 from .parallel import in_background
+from .progress import Text
 from .surface import unique_nodes
 from .tile_merge import check_copy_keys, check_merge_memory, merge_pieces, renumbered_blocks
 from .workers import TileRunner
@@ -390,7 +391,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     if len(table) == 0 and "No building block in the result." not in warnings:
         warnings.append("No building block in the result.")
     if progress is not None:
-        progress(1.0, f"{len(table)} blocks")
+        progress(1.0, Text("{} blocks", len(table)))
     return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface, mesh=mesh, measures=measures,
                           footprint_columns=columns, warnings=warnings, timings=timings,
                           stats={"tiles": len(cores), "tiles_rerun": regrown,

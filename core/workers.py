@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Callable, Iterator
 
 from .errors import Cancelled, UrbanvoxError
 from .heap import WORKER_ENVIRONMENT
+from .progress import Text
 
 if TYPE_CHECKING:
     from .tiles import Columns, TileJob, TileOptions, TilePiece
@@ -96,7 +97,7 @@ class TileRunner:
 
                 def tile_progress(fraction: float, message: str, done: int = finished) -> None:
                     if progress is not None:
-                        progress((done + fraction) / total, f"Tile {done + 1}/{total}: {message}")
+                        progress((done + fraction) / total, Text("Tile {}/{}: {}", done + 1, total, message))
 
                 piece = self.run_tile(job, tile_progress, is_cancelled)
                 del job
@@ -114,7 +115,7 @@ class TileRunner:
             if piece.grow is None:
                 finished += 1
                 if progress is not None:
-                    progress(finished / total, f"Tile {finished}/{total} done")
+                    progress(finished / total, Text("Tile {}/{} done", finished, total))
             yield piece
 
 

@@ -219,5 +219,97 @@
       <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud: one or several .las/.laz files (a tile collection, as LiDAR is delivered, is read as one cloud).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
       <translation>&lt;p&gt;Voxel-Gebäudeblöcke aus einer klassifizierten LiDAR-Punktwolke: eine oder mehrere .las/.laz-Dateien (eine Kachelsammlung, wie LiDAR geliefert wird, wird als eine Wolke gelesen).&lt;/p&gt;&lt;p&gt;&lt;b&gt;KBS&lt;/b&gt;: das Koordinatenbezugssystem der Punkte; standardmäßig das aus dem Dateikopf. Erforderlich, wenn der Kopf keines enthält (z. B. AHN3-Kacheln: EPSG:28992); es ersetzt das des Kopfes.&lt;br&gt;&lt;b&gt;Bodenklassen&lt;/b&gt; / &lt;b&gt;Gebäudeklassen&lt;/b&gt;: ASPRS-Klassifizierungscodes, durch Kommas getrennt (Boden 2, Gebäude 6 in Standard-LAS). Punkte anderer Klassen werden ignoriert.&lt;/p&gt;</translation>
     </message>
+    <message>
+      <source>Writing the blocks and footprints</source>
+      <translation>Blöcke und Grundrisse werden geschrieben</translation>
+    </message>
+    <message>
+      <source>Cancelled; no output was written.</source>
+      <translation>Abgebrochen; keine Ausgabe wurde geschrieben.</translation>
+    </message>
+    <message>
+      <source>Writing the ground</source>
+      <translation>Gelände wird geschrieben</translation>
+    </message>
+    <message>
+      <source>File not found: {}</source>
+      <translation>Datei nicht gefunden: {}</translation>
+    </message>
+    <message>
+      <source>Tiles of {} m on {}</source>
+      <translation>Kacheln von {} m auf {}</translation>
+    </message>
+    <message>
+      <source>Writing the mesh {}</source>
+      <translation>Netz {} wird geschrieben</translation>
+    </message>
+    <message>
+      <source>{} worker(s)</source>
+      <translation>{} Worker-Prozess(e)</translation>
+    </message>
+    <message>
+      <source>No point cloud file given (INPUT).</source>
+      <translation>Keine Punktwolkendatei angegeben (INPUT).</translation>
+    </message>
+    <message>
+      <source>Not a LAS/LAZ file: {}</source>
+      <translation>Keine LAS/LAZ-Datei: {}</translation>
+    </message>
+    <message>
+      <source>Reading point cloud</source>
+      <translation>Punktwolke wird gelesen</translation>
+    </message>
+    <message>
+      <source>Reading mesh</source>
+      <translation>Netz wird gelesen</translation>
+    </message>
+    <message>
+      <source>Sampling triangles</source>
+      <translation>Dreiecke werden abgetastet</translation>
+    </message>
+    <message>
+      <source>Ground level of every column</source>
+      <translation>Geländehöhe jeder Säule</translation>
+    </message>
+    <message>
+      <source>Sorting voxels into ground, building and air</source>
+      <translation>Voxel werden in Boden, Gebäude und Luft eingeteilt</translation>
+    </message>
+    <message>
+      <source>Building blocks</source>
+      <translation>Gebäudeblöcke</translation>
+    </message>
+    <message>
+      <source>Eliminating unsupported boundary voxels</source>
+      <translation>Nicht durch Daten gestützte Randvoxel werden entfernt</translation>
+    </message>
+    <message>
+      <source>Conforming surfaces</source>
+      <translation>Konforme Flächen</translation>
+    </message>
+    <message>
+      <source>Projecting nodes onto the data</source>
+      <translation>Knoten werden auf die Daten projiziert</translation>
+    </message>
+    <message>
+      <source>{} blocks</source>
+      <translation>{} Blöcke</translation>
+    </message>
+    <message>
+      <source>Smoothing ({} passes)</source>
+      <translation>Glättung ({} Durchgänge)</translation>
+    </message>
+    <message>
+      <source>Cluster {}/{}: {}</source>
+      <translation>Gruppe {}/{}: {}</translation>
+    </message>
+    <message>
+      <source>Tile {}/{} done</source>
+      <translation>Kachel {}/{} fertig</translation>
+    </message>
+    <message>
+      <source>Tile {}/{}: {}</source>
+      <translation>Kachel {}/{}: {}</translation>
+    </message>
   </context>
 </TS>

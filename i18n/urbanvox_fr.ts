@@ -219,5 +219,97 @@
       <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud: one or several .las/.laz files (a tile collection, as LiDAR is delivered, is read as one cloud).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
       <translation>&lt;p&gt;Îlots bâtis voxelisés à partir d'un nuage de points LiDAR classifié : un ou plusieurs fichiers .las/.laz (une collection de dalles, telle que le LiDAR est livré, est lue comme un seul nuage).&lt;/p&gt;&lt;p&gt;&lt;b&gt;SCR&lt;/b&gt; : le système de coordonnées des points ; par défaut celui de l'en-tête du fichier. Obligatoire quand l'en-tête n'en a pas (par ex. dalles AHN3 : EPSG:28992) ; il remplace celui de l'en-tête.&lt;br&gt;&lt;b&gt;Classes du sol&lt;/b&gt; / &lt;b&gt;Classes des bâtiments&lt;/b&gt; : codes de classification ASPRS, séparés par des virgules (sol 2, bâtiment 6 en LAS standard). Les points des autres classes sont ignorés.&lt;/p&gt;</translation>
     </message>
+    <message>
+      <source>Writing the blocks and footprints</source>
+      <translation>Écriture des îlots et de leurs emprises</translation>
+    </message>
+    <message>
+      <source>Cancelled; no output was written.</source>
+      <translation>Annulé ; aucune sortie n'a été écrite.</translation>
+    </message>
+    <message>
+      <source>Writing the ground</source>
+      <translation>Écriture du sol</translation>
+    </message>
+    <message>
+      <source>File not found: {}</source>
+      <translation>Fichier introuvable : {}</translation>
+    </message>
+    <message>
+      <source>Tiles of {} m on {}</source>
+      <translation>Tuiles de {} m sur {}</translation>
+    </message>
+    <message>
+      <source>Writing the mesh {}</source>
+      <translation>Écriture du maillage {}</translation>
+    </message>
+    <message>
+      <source>{} worker(s)</source>
+      <translation>{} processus de calcul</translation>
+    </message>
+    <message>
+      <source>No point cloud file given (INPUT).</source>
+      <translation>Aucun fichier de nuage de points donné (INPUT).</translation>
+    </message>
+    <message>
+      <source>Not a LAS/LAZ file: {}</source>
+      <translation>Pas un fichier LAS/LAZ : {}</translation>
+    </message>
+    <message>
+      <source>Reading point cloud</source>
+      <translation>Lecture du nuage de points</translation>
+    </message>
+    <message>
+      <source>Reading mesh</source>
+      <translation>Lecture du maillage</translation>
+    </message>
+    <message>
+      <source>Sampling triangles</source>
+      <translation>Échantillonnage des triangles</translation>
+    </message>
+    <message>
+      <source>Ground level of every column</source>
+      <translation>Niveau du sol de chaque colonne</translation>
+    </message>
+    <message>
+      <source>Sorting voxels into ground, building and air</source>
+      <translation>Classement des voxels en sol, bâti et air</translation>
+    </message>
+    <message>
+      <source>Building blocks</source>
+      <translation>Îlots bâtis</translation>
+    </message>
+    <message>
+      <source>Eliminating unsupported boundary voxels</source>
+      <translation>Élimination des voxels de bord non étayés par les données</translation>
+    </message>
+    <message>
+      <source>Conforming surfaces</source>
+      <translation>Surfaces conformes</translation>
+    </message>
+    <message>
+      <source>Projecting nodes onto the data</source>
+      <translation>Projection des nœuds sur les données</translation>
+    </message>
+    <message>
+      <source>{} blocks</source>
+      <translation>{} îlots</translation>
+    </message>
+    <message>
+      <source>Smoothing ({} passes)</source>
+      <translation>Lissage ({} passes)</translation>
+    </message>
+    <message>
+      <source>Cluster {}/{}: {}</source>
+      <translation>Groupe {}/{} : {}</translation>
+    </message>
+    <message>
+      <source>Tile {}/{} done</source>
+      <translation>Tuile {}/{} terminée</translation>
+    </message>
+    <message>
+      <source>Tile {}/{}: {}</source>
+      <translation>Tuile {}/{} : {}</translation>
+    </message>
   </context>
 </TS>

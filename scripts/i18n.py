@@ -4,9 +4,12 @@
     lrelease i18n/urbanvox_fr.ts -qm i18n/urbanvox_fr.qm    # what `make` does for every .ts
 
 Strings are collected by running the algorithms' text methods with ``tr`` recorded (many are
-built from tables, which a source scanner would miss). Existing translations are kept; new
-strings are added as unfinished, strings no longer used are dropped.
+built from tables, which a source scanner would miss), and from the source (:func:`source_strings`):
+the texts the algorithms pass to ``tr`` while they run, and the core's progress messages, which
+the algorithms translate as they show them (``core.progress``). Existing translations are kept;
+new strings are added as unfinished, strings no longer used are dropped.
 """
+import ast
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -45,6 +48,42 @@ def collect() -> list[str]:
     return seen
 
 
+def source_strings() -> list[str]:
+    """The constant texts of the source that reach the translator while an algorithm runs:
+    ``tr("...")`` in processing_provider/, and in core/ the messages given to ``report`` or
+    ``progress`` as constants and the templates of ``Text("...", ...)`` (core.progress).
+    Needs no QGIS."""
+    found: list[str] = []
+    for folder, wanted in (("processing_provider", _provider_text), ("core", _progress_text)):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+                text = wanted(node) if isinstance(node, ast.Call) else None
+                if text is not None and text not in found:
+                    found.append(text)
+    return found
+
+
+def _name(call: ast.Call) -> str | None:
+    function = call.func
+    return function.attr if isinstance(function, ast.Attribute) else getattr(function, "id", None)
+
+
+def _constant(node: ast.expr) -> str | None:
+    return node.value if isinstance(node, ast.Constant) and isinstance(node.value, str) else None
+
+
+def _provider_text(call: ast.Call) -> str | None:
+    return _constant(call.args[0]) if _name(call) == "tr" and call.args else None
+
+
+def _progress_text(call: ast.Call) -> str | None:
+    if _name(call) == "Text" and call.args:
+        return _constant(call.args[0])
+    if _name(call) in ("report", "progress") and len(call.args) >= 2:
+        return _constant(call.args[1])
+    return None
+
+
 def read_ts(path: Path) -> dict[str, str]:
     if not path.exists():
         return {}
@@ -78,6 +117,7 @@ def main(argv: list[str]) -> int:
         print(__doc__)
         return 2
     strings = collect()
+    strings += [text for text in source_strings() if text not in strings]
     for language in LANGUAGES:
         path = ROOT / "i18n" / f"urbanvox_{language}.ts"
         translations = read_ts(path)

@@ -394,6 +394,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(missing_dependency_message(missing))
         from ...core import pipeline  # imported here: it needs the modules just checked
         from ...core.errors import UrbanvoxError
+        from ...core.progress import translated
 
         params = pipeline.ReconstructionParams(
             voxel_size=self.parameterAsDouble(parameters, self.VOXEL_SIZE, context),
@@ -409,7 +410,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         def progress(fraction, message=None):
             feedback.setProgress(_RECONSTRUCTION_PERCENT * min(max(float(fraction), 0.0), 1.0))
             if message:
-                feedback.setProgressText(str(message))
+                feedback.setProgressText(translated(message, self.tr))
 
         tiles = self.tileOptions(parameters, context)
         if tiles is not None:

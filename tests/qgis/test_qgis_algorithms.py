@@ -98,6 +98,28 @@ def test_point_cloud_on_the_synthetic_district(processing, district, tmp_path):
     assert feedback.warnings  # the district has trees over roofs and blocks below the thresholds
 
 
+def test_a_french_qgis_shows_the_run_in_french(processing, district, tmp_path):
+    """The core's step messages and the outputs' are translated as they are shown (core.progress)."""
+    from qgis.PyQt.QtCore import QCoreApplication
+
+    import urbanvox
+
+    translator = urbanvox.load_translation("fr")
+    assert translator is not None
+    feedback = make_feedback()
+    try:
+        processing.run("urbanvox:reconstructfrompointcloud",
+                       {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "SMOOTHING_ITERATIONS": 3,
+                        **gpkg_outputs(tmp_path / "fr.gpkg")}, feedback=feedback)
+    finally:
+        QCoreApplication.removeTranslator(translator)
+    texts = feedback.texts
+    assert {"Lecture du nuage de points", "Lissage (3 passes)", "Projection des nœuds sur les données",
+            "Écriture des îlots et de leurs emprises"} <= set(texts), texts
+    assert any(text.endswith(" îlots") for text in texts), texts
+    assert not [text for text in texts if text.startswith(("Reading", "Smoothing", "Projecting", "Writing"))]
+
+
 def test_mesh_on_the_synthetic_district(processing, district, tmp_path):
     gpkg = tmp_path / "mesh.gpkg"
     results = processing.run(

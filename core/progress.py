@@ -1,0 +1,83 @@
+"""How long work reports progress and learns it is cancelled.
+
+Every step of the method that takes time accepts ``progress(fraction,
+message)`` (:data:`Progress`) and ``is_cancelled()`` (:data:`CancelCheck`):
+the command line prints the messages, QGIS shows them in its Processing
+dialog. QGIS shows them in the user's language, but the core knows no
+translator (it imports no QGIS); so a message made of parts is a :class:`Text`,
+which keeps its template and parts for the host to translate, and a message
+of one part is a plain constant string, which the host translates as it is.
+``scripts/i18n.py`` collects both kinds from the source.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+#: ``progress(fraction, message)``: the share of the work done (0 to 1) and
+#: what is being done (a constant string or a :class:`Text`).
+Progress = Callable[[float, str], None]
+
+#: ``is_cancelled()``: whether the user asked to stop; work then raises
+#: :class:`core.errors.Cancelled` at its next check.
+CancelCheck = Callable[[], bool]
+
+
+class Text(str):
+    """A progress message made of a template and its parts: a ``str`` equal
+    to ``template.format(*parts)`` that keeps both, so that a host with a
+    translator can translate the template and the parts that are texts.
+
+    Parameters
+    ----------
+    template : str
+        The message with ``{}`` for each part; a constant, so that it can be
+        collected for translation.
+    *parts
+        The numbers and texts put in; a part that is a text is translated too
+        (:meth:`translated`), a nested :class:`Text` part by part.
+
+    Examples
+    --------
+    >>> text = Text("Tile {}/{}: {}", 2, 6, "Building blocks")
+    >>> text
+    'Tile 2/6: Building blocks'
+    >>> (text.template, text.parts)
+    ('Tile {}/{}: {}', (2, 6, 'Building blocks'))
+    >>> french = {"Tile {}/{}: {}": "Tuile {}/{} : {}", "Building blocks": "Îlots bâtis"}
+    >>> text.translated(lambda s: french.get(s, s))
+    'Tuile 2/6 : Îlots bâtis'
+    """
+
+    template: str
+    parts: tuple
+
+    def __new__(cls, template: str, *parts) -> "Text":
+        text = super().__new__(cls, template.format(*parts))
+        text.template = template
+        text.parts = parts
+        return text
+
+    def __reduce__(self):
+        # Pickled as its template and parts (a tile's message may cross
+        # processes): str's own pickling would make the whole text the template.
+        return (Text, (self.template, *self.parts))
+
+    def translated(self, translate: Callable[[str], str]) -> str:
+        """The message with its template and text parts passed through ``translate``."""
+        return translate(self.template).format(*(translated(part, translate) if isinstance(part, str) else part
+                                                 for part in self.parts))
+
+
+def translated(message: str, translate: Callable[[str], str]) -> str:
+    """``message`` in the language of ``translate`` (a function from an English
+    text to its translation, the text itself when it has none): a :class:`Text`
+    part by part, any other string whole.
+
+    Examples
+    --------
+    >>> translated("Building blocks", {"Building blocks": "Îlots bâtis"}.get)
+    'Îlots bâtis'
+    """
+    if isinstance(message, Text):
+        return message.translated(translate)
+    return translate(str(message))
