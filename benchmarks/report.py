@@ -40,7 +40,8 @@ def _ratio(a, b) -> str:
 def print_case(name: str, voxel: float, r: dict) -> None:
     points = r["n_ground"] + r["n_building"]
     unit_count = {"read": r["n_read"], "points": points, "voxels": r["voxels"], "faces": r["faces"]}
-    print(f"\n{name} @ {voxel:g} m: {r['blocks']:,} blocks, {r['n_read']:,} {'points' if 'sample' not in r['stages'] else 'triangles'} read "
+    read = "points" if "sample" not in r["stages"] else "triangles"
+    print(f"\n{name} @ {voxel:g} m: {r['blocks']:,} blocks, {r['n_read']:,} {read} read "
           f"({r['n_ground']:,} ground, {r['n_building']:,} building), {r['voxels']:,} voxels"
           f"{' in %d grids' % r['clusters'] if r['clusters'] > 1 else ''}, {r['faces']:,} faces; "
           f"end to end {r['e2e_s']:.2f} s, peak RSS {r['peak_rss_mb']:,.0f} MB")
@@ -70,7 +71,8 @@ def print_case(name: str, voxel: float, r: dict) -> None:
     print(f"  {'voxelise':<16} {bn['unique_s']:8.2f} {_fmt_rate(bn['points'], bn['unique_s']):>9} pts      "
           f"(np.unique reference: a sort)")
     print(f"  {'voxelise fast':<16} {bn['fast_s']:8.3f} {_fmt_rate(bn['points'], bn['fast_s']):>9} pts      "
-          f"(VoxelGrid.occupied_cells, the pipeline's, inside ground; file order; shuffled {_fmt_rate(bn['points'], bn['fast_shuffled_s']).strip()} pts/s; "
+          "(VoxelGrid.occupied_cells, the pipeline's, inside ground; file order; "
+          f"shuffled {_fmt_rate(bn['points'], bn['fast_shuffled_s']).strip()} pts/s; "
           f"same cells: {bn['equal']})")
     o3d_s = bn["open3d_s"]
     o3d_txt = o3d_s if isinstance(o3d_s, str) else (f"{o3d_s:.3f} s ({_fmt_rate(bn['points'], o3d_s).strip()} pts/s, "

@@ -349,7 +349,8 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
     ...     check_memory((10**4, 10**4, 200), 0.5, available=10**9)
     ... except UrbanvoxError as error:
     ...     print(error)
-    The voxel grid (10000 x 10000 x 200 = 20000000000 voxels at 0.5) needs about 298.0 GiB but only 0.9 GiB is available. Use a voxel size of at least 3.6, or a smaller area.
+    The voxel grid (10000 x 10000 x 200 = 20000000000 voxels at 0.5) needs about 298.0 GiB
+    but only 0.9 GiB is available. Use a voxel size of at least 3.6, or a smaller area.
     """
     n = int(np.prod(shape, dtype=np.int64))
     needed = n * bytes_per_voxel
@@ -407,7 +408,8 @@ def check_face_memory(n_faces: int, n_columns: int, voxel_size: float, available
     ...     check_face_memory(2 * 10**8, 4 * 10**6, 1.0, available=8 * 2**30)
     ... except UrbanvoxError as error:
     ...     print(error)
-    The surfaces (200000000 faces) need about 74.5 GiB for smoothing and projection but only 8.0 GiB is available. Use a voxel size of at least 3.3, or tiles of at most 458 (TILE_SIZE).
+    The surfaces (200000000 faces) need about 74.5 GiB for smoothing and projection but only
+    8.0 GiB is available. Use a voxel size of at least 3.3, or tiles of at most 458 (TILE_SIZE).
     """
     needed = int(n_faces) * bytes_per_face
     if available is None:

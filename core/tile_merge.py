@@ -64,7 +64,9 @@ def check_merge_memory(faces: int, columns: int, tiles_done: int, n_tiles: int, 
     ...     check_merge_memory(3_000_000, 500 * 500, 1, 4, (1000, 1000, 50), 2**30, 1.0)
     ... except UrbanvoxError as error:
     ...     print(error)
-    The merged model is heading for about 1.2e+07 faces (from 1 tile done out of 4), which need about 1.8 GiB to merge, but only 1.0 GiB is available. Use a voxel size of at least 1.5, or a smaller area.
+    The merged model is heading for about 1.2e+07 faces (from 1 tile done out of 4), which need
+    about 1.8 GiB to merge, but only 1.0 GiB is available. Use a voxel size of at least 1.5, or a
+    smaller area.
     """
     total = shape[0] * shape[1]
     if columns < 0.1 * total:

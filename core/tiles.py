@@ -415,7 +415,8 @@ def _tile_warnings(pieces: list[TilePiece]) -> list[str]:
         if len(texts) == 1:
             out.append(texts[0])
         else:
-            out.append(f"{texts[0].rstrip('.')} (said by {len(texts)} tiles, this is the first; a tile counts its halo too).")
+            out.append(f"{texts[0].rstrip('.')} (said by {len(texts)} tiles, this is the first; "
+                       "a tile counts its halo too).")
     return out
 
 

@@ -80,7 +80,8 @@ def test_the_measures_splits_are_the_layers_and_mesh_files(result, monkeypatch):
     blocks, ground, triangles = list(own.block_surface_wkb()), list(own.ground_surface_wkb()), own.mesh_triangles
     searched = []
     real = quality.best_diagonal
-    monkeypatch.setattr(quality, "best_diagonal", lambda nodes, quads: searched.append(len(quads)) or real(nodes, quads))
+    monkeypatch.setattr(quality, "best_diagonal",
+                        lambda nodes, quads: searched.append(len(quads)) or real(nodes, quads))
     carried = fresh(result)
     assert list(carried.block_surface_wkb()) == blocks and searched == []
     assert list(carried.ground_surface_wkb()) == ground

@@ -99,7 +99,8 @@ def test_montpellier_six_files_tiled_on_two_workers(qgis_app, qgis_process, shar
     for name, extra in (("single", []), ("tiled", ["TILE_SIZE=50", "WORKERS=2"])):
         gpkg = tmp_path / f"{name}.gpkg"
         proc = qgis_process("--json", "run", "urbanvox:reconstructfrompointcloud", "--",
-                            *(f"INPUT={f}" for f in files), *extra, *(f"{k}={v}" for k, v in gpkg_outputs(gpkg).items()))
+                            *(f"INPUT={f}" for f in files), *extra,
+                            *(f"{k}={v}" for k, v in gpkg_outputs(gpkg).items()))
         assert proc.returncode == 0, (proc.stdout + proc.stderr)[-3000:]
         _, features = read_layer(gpkg, "blocks")
         runs[name] = sorted((f["block_id"], f["volume"], f["mesh_volume"]) for f in features)
