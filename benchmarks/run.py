@@ -11,7 +11,8 @@ Run from the repository root with the project's venv::
 
 Cases: every LAS/LAZ file of ../shared/data (``URBANVOX_SHARED_DATA`` overrides it) with the
 CRS and classes the real-data tests use, the six Montpellier tiles read as one collection, the
-Zurich LoD2 STL, the 250 m synthetic district and the synthetic city (2 km x 2 km, ~5,700
+Zurich LoD2 STL, the three CityJSON models (Zurich's, Rotterdam's, Den Haag's; the trimesh
+voxeliser baseline only for the STL), the 250 m synthetic district and the synthetic city (2 km x 2 km, ~5,700
 blocks, ~50 M points; 500 m with ``--quick``), generated once into a cache folder.
 
 Each case runs in a fresh process (its peak RSS is its own): read, the pipeline's stages
@@ -57,7 +58,7 @@ CACHE = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "urbanv
 DENSITY = 12.0
 
 #: Functions whose pyinstrument subtree is a stage (``--profile``).
-STAGE_FUNCTIONS = {"read": {"read_point_clouds", "read_triangles"}, "sample": {"sample_thinned"},
+STAGE_FUNCTIONS = {"read": {"read_point_clouds", "read_triangles", "read_cityjson"}, "sample": {"sample_thinned"},
                    "ground": {"column_ground_level", "occupied_cells"}, "classify": {"classify_voxels"},
                    "blocks": {"blocks_above_thresholds"}, "eliminate": {"eliminate_unsupported"},
                    "surface": {"from_regions", "block_columns"}, "smooth": {"smooth"},
@@ -86,6 +87,10 @@ def cases(city_size: float, density: float = DENSITY) -> dict[str, dict]:
         out[key] = {"kind": "las", "paths": [tile], "crs": None}
     out["zurich"] = {"kind": "mesh", "paths": [DATA / "cityjson/zurich_subset_lod2_buildings.stl"],
                      "crs": "EPSG:2056"}
+    # The CityJSON models: Zurich's CRS from the file; Rotterdam and Den Haag name none.
+    out["zurich_json"] = {"kind": "mesh", "paths": [DATA / "cityjson/zurich_subset_lod2.json"], "crs": None}
+    out["rotterdam"] = {"kind": "mesh", "paths": [DATA / "cityjson/rotterdam_subset.json"], "crs": "EPSG:28992"}
+    out["den_haag"] = {"kind": "mesh", "paths": [DATA / "cityjson/DH_01_subs.city.json"], "crs": "EPSG:7415"}
     out["district"] = {"kind": "district", "paths": None, "crs": None}
     out["city"] = {"kind": "city", "paths": None, "crs": None, "size": city_size, "density": density}
     return out
@@ -192,19 +197,28 @@ def _run_once(spec: dict, params, airborne: bool):
         del points
         stages["read"] = {"s": time.perf_counter() - start, "rss": _rss_mb()}
     else:
+        from core.readers.cityjson import is_cityjson, read_cityjson
         from core.readers.mesh import base_points, read_triangles
         from core.sampling import sample_thinned
 
-        crs = resolve_crs(None, spec["crs"], spec["paths"][0])
+        if is_cityjson(spec["paths"][0]):  # as reconstruct_mesh reads it
+            city = read_cityjson(spec["paths"][0])
+            crs = resolve_crs(city.crs, spec["crs"], spec["paths"][0])
+            triangles, terrain, warnings = city.buildings, city.terrain, list(city.warnings)
+        else:
+            crs = resolve_crs(None, spec["crs"], spec["paths"][0])
+            triangles, terrain = read_triangles(spec["paths"][0]), None
+            warnings = list(triangles.warnings)
         unit = metres_per_unit(crs)
         h = params.voxel_size / unit
-        triangles = read_triangles(spec["paths"][0])
-        warnings = list(triangles.warnings)
         report["n_read"] = int(len(triangles.corners()))
         stages["read"] = {"s": time.perf_counter() - start, "rss": _rss_mb()}
         lap = time.perf_counter()
         building = sample_thinned(triangles.corners(), 0.1 * h, h / 3)
-        ground = base_points(triangles, h, unit=unit)
+        if terrain is not None:
+            ground = sample_thinned(terrain.corners(), 0.1 * h, h / 3)
+        else:
+            ground = base_points(triangles, h, unit=unit)
         stages["sample"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
     report["n_ground"], report["n_building"] = int(len(ground)), int(len(building))
 
@@ -266,7 +280,7 @@ def run_baselines(spec: dict, ground, building, crs, params, airborne: bool) -> 
 
     grids = list(bl.pipeline_grids(ground, building, crs, params.voxel_size))
     out: dict = {"binning": bl.binning(grids)}
-    if spec["kind"] == "mesh":
+    if spec["kind"] == "mesh" and not str(spec["paths"][0]).lower().endswith(".json"):  # trimesh reads no CityJSON
         h = params.voxel_size / metres_per_unit(crs)
         out["trimesh"] = bl.trimesh_voxelise(spec["paths"][0], h)
     m = metres_per_unit(crs)

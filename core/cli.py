@@ -24,6 +24,7 @@ from pathlib import Path
 from .errors import Cancelled, UrbanvoxError
 from .heap import one_arena
 from .pipeline import ReconstructionParams, reconstruct_mesh, reconstruct_point_cloud
+from .readers.cityjson import is_cityjson
 from .tiles import TileOptions
 
 POINT_CLOUD_SUFFIXES = (".las", ".laz")
@@ -31,12 +32,12 @@ POINT_CLOUD_SUFFIXES = (".las", ".laz")
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m core", description=__doc__.split("\n\n")[0])
-    p.add_argument("inputs", nargs="+", type=Path, help="LAS/LAZ files, or one building mesh")
+    p.add_argument("inputs", nargs="+", type=Path, help="LAS/LAZ files, or one building mesh or CityJSON file")
     p.add_argument("--crs", help="CRS of the data (required when the file has none, e.g. EPSG:28992)")
     p.add_argument("--voxel-size", type=float, default=1.0, help="voxel edge in metres (default 1)")
     p.add_argument("--ground-classes", default="2", help="LAS ground class codes (default 2)")
     p.add_argument("--building-classes", default="6", help="LAS building class codes (default 6)")
-    p.add_argument("--ground-mesh", type=Path, help="terrain mesh for a building mesh input")
+    p.add_argument("--ground-mesh", type=Path, help="terrain mesh (or CityJSON terrain) for a mesh input")
     p.add_argument("--extent", type=float, nargs=4, metavar=("XMIN", "YMIN", "XMAX", "YMAX"),
                    help="domain extent in the data's CRS")
     p.add_argument("--smoothing", type=int, default=3, help="Catmull-Clark passes (default 3)")
@@ -77,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
                                              building_classes=args.building_classes, params=params,
                                              tiles=tiles, progress=progress)
         elif len(args.inputs) == 1:
-            if not args.crs:
+            if not args.crs and not is_cityjson(args.inputs[0]):
                 raise UrbanvoxError("A mesh carries no CRS: give it with --crs (e.g. --crs EPSG:2056).")
             result = reconstruct_mesh(args.inputs[0], crs=args.crs, ground_path=args.ground_mesh,
                                       params=params, tiles=tiles, progress=progress)

@@ -26,6 +26,7 @@ before anything is written.
 """
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -143,29 +144,46 @@ def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: st
 
 
 @reusing_freed_memory()
-def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | None = None,
+def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: str | Path | None = None,
                      params: ReconstructionParams | None = None,
                      tiles: TileOptions | None = None,
                      progress: Progress | None = None,
                      is_cancelled: CancelCheck | None = None) -> Reconstruction:
-    """Voxel model from a building mesh (STL/OBJ/PLY/OFF) of any quality.
+    """Voxel model from a building mesh (STL/OBJ/PLY/OFF) of any quality, or
+    from a CityJSON city model.
 
     Triangles are sampled so neighbouring points are at most 10 % of a voxel
-    apart (paper §2). Without ``ground_path`` the ground passes through the
-    bottom of every building part (:func:`core.readers.mesh.base_points`).
+    apart (paper §2). The ground is ``ground_path`` (a mesh, or a CityJSON
+    file's terrain) if given, else a CityJSON file's own terrain if it has
+    one, else it passes through the bottom of every building part
+    (:func:`core.readers.mesh.base_points`). ``crs`` is needed unless the
+    file names one (CityJSON's ``referenceSystem``; a mesh never does).
     """
+    from .readers.cityjson import is_cityjson, read_cityjson
     from .readers.mesh import base_points, read_triangles
     from .sampling import sample_thinned
 
     params = params or ReconstructionParams()
     report = _reporter(progress, is_cancelled)
     report(0.0, "Reading mesh")
-    crs_obj = resolve_crs(None, crs, str(path))
+    if is_cityjson(path):
+        city = read_cityjson(path, is_cancelled)
+        crs_obj = resolve_crs(city.crs, crs, str(path))
+        if city.buildings is None:
+            raise UrbanvoxError(f"{path} has terrain but no building surfaces (Building, BuildingPart or "
+                                "BuildingInstallation objects); give it as the ground mesh instead.")
+        triangles, ground_triangles, warnings = city.buildings, city.terrain, list(city.warnings)
+    else:
+        if not crs or not str(crs).strip():  # before a long read
+            raise UrbanvoxError(f"{os.path.basename(str(path))} is a mesh, which carries no CRS: set the CRS "
+                                "parameter (e.g. EPSG:2056).")
+        crs_obj = resolve_crs(None, crs, str(path))
+        triangles = read_triangles(str(path), is_cancelled)
+        ground_triangles, warnings = None, list(triangles.warnings)
+    if ground_path:
+        ground_triangles = _ground_triangles(ground_path, is_cancelled)
     unit = metres_per_unit(crs_obj)
     h = params.voxel_size / unit
-    triangles = read_triangles(str(path), is_cancelled)
-    warnings = list(triangles.warnings)
-    ground_triangles = read_triangles(str(ground_path), is_cancelled) if ground_path else None
     # Samples at 10 % of a voxel (paper §2), kept as one mean point per third
     # of a voxel: the same voxel occupancy, a tenth of the points.
     report(0.05, "Sampling triangles")
@@ -177,6 +195,19 @@ def reconstruct_mesh(path: str | Path, *, crs: str, ground_path: str | Path | No
     return reconstruct_points(ground, building, crs_obj, params, airborne=False, warnings=warnings,
                               tiles=tiles, progress=progress, is_cancelled=is_cancelled,
                               overwrite_points=True)
+
+
+def _ground_triangles(path: str | Path, is_cancelled: CancelCheck | None):
+    """The triangles of a ground mesh, or a CityJSON file's terrain."""
+    from .readers.cityjson import is_cityjson, read_cityjson
+    from .readers.mesh import read_triangles
+
+    if not is_cityjson(path):
+        return read_triangles(str(path), is_cancelled)
+    terrain = read_cityjson(path, is_cancelled).terrain
+    if terrain is None:
+        raise UrbanvoxError(f"The ground file {path} has no terrain (TINRelief objects with surfaces).")
+    return terrain
 
 
 @reusing_freed_memory()

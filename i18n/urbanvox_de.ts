@@ -184,28 +184,28 @@
       <translation>Geschlossene, konforme Oberflächen jedes Blocks, des Bodens und der Luft für einen Finite-Elemente- oder CFD-Vernetzer: .msh (gmsh, physikalische Gruppen), .vtu, .obj, .stl oder .ply. Daneben wird ein PNG-Bild geschrieben.</translation>
     </message>
     <message>
-      <source>Building mesh (STL/OBJ/PLY/OFF)</source>
-      <translation>Gebäudenetz (STL/OBJ/PLY/OFF)</translation>
+      <source>Building mesh (STL/OBJ/PLY/OFF) or CityJSON</source>
+      <translation>Gebäudenetz (STL/OBJ/PLY/OFF) oder CityJSON</translation>
     </message>
     <message>
       <source>Ground mesh</source>
       <translation>Geländenetz</translation>
     </message>
     <message>
-      <source>CRS of the mesh coordinates</source>
-      <translation>KBS der Netzkoordinaten</translation>
+      <source>CRS of the coordinates (required for STL/OBJ/PLY/OFF)</source>
+      <translation>KBS der Koordinaten (erforderlich für STL/OBJ/PLY/OFF)</translation>
     </message>
     <message>
-      <source>Optional terrain mesh; without it the ground passes through the bottom of every building part.</source>
-      <translation>Optionales Geländenetz; ohne es verläuft der Boden durch die Unterkante jedes Gebäudeteils.</translation>
+      <source>Optional terrain mesh, or a CityJSON file's terrain (TINRelief); without it the ground is a CityJSON input's own terrain, else it passes through the bottom of every building part.</source>
+      <translation>Optionales Geländenetz oder das Gelände (TINRelief) einer CityJSON-Datei; ohne es ist der Boden das Gelände der CityJSON-Eingabe, sonst verläuft er durch die Unterkante jedes Gebäudeteils.</translation>
     </message>
     <message>
       <source>Reconstruct building blocks from mesh</source>
       <translation>Gebäudeblöcke aus einem Netz rekonstruieren</translation>
     </message>
     <message>
-      <source>&lt;p&gt;Voxel building blocks from a triangle mesh of buildings, e.g. an STL exported from CityGML (also OBJ, PLY, OFF). Triangles may overlap, intersect or leave gaps: they are sampled into points no farther apart than 10% of a voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Ground mesh&lt;/b&gt; [optional]: a mesh of the terrain; without it the ground is taken under the lowest building points.&lt;br&gt;&lt;b&gt;CRS&lt;/b&gt;: required, since STL and most mesh formats carry none.&lt;/p&gt;</source>
-      <translation>&lt;p&gt;Voxel-Gebäudeblöcke aus einem Dreiecksnetz von Gebäuden, z. B. einem aus CityGML exportierten STL (auch OBJ, PLY, OFF). Dreiecke dürfen sich überlappen, schneiden oder Lücken lassen: sie werden in Punkte mit höchstens 10 % eines Voxels Abstand abgetastet.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Geländenetz&lt;/b&gt; [optional]: ein Netz des Geländes; ohne es wird der Boden unter den tiefsten Gebäudepunkten angenommen.&lt;br&gt;&lt;b&gt;KBS&lt;/b&gt;: erforderlich, da STL und die meisten Netzformate keines tragen.&lt;/p&gt;</translation>
+      <source>&lt;p&gt;Voxel building blocks from a triangle mesh of buildings, e.g. an STL exported from CityGML (also OBJ, PLY, OFF), or from a CityJSON city model (.json), whose buildings' polygons are triangulated. Triangles may overlap, intersect or leave gaps: they are sampled into points no farther apart than 10% of a voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Ground mesh&lt;/b&gt; [optional]: a mesh of the terrain, or a CityJSON file with a TINRelief; without it the ground is a CityJSON input's own terrain, if it has one, else it is taken under the lowest building points.&lt;br&gt;&lt;b&gt;CRS&lt;/b&gt;: required for STL, OBJ, PLY and OFF, which carry none; a CityJSON file's referenceSystem is used when it is not set.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Voxel-Gebäudeblöcke aus einem Dreiecksnetz von Gebäuden, z. B. einem aus CityGML exportierten STL (auch OBJ, PLY, OFF), oder aus einem CityJSON-Stadtmodell (.json), dessen Gebäudepolygone trianguliert werden. Dreiecke dürfen sich überlappen, schneiden oder Lücken lassen: sie werden in Punkte mit höchstens 10 % eines Voxels Abstand abgetastet.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Geländenetz&lt;/b&gt; [optional]: ein Netz des Geländes oder eine CityJSON-Datei mit einem TINRelief; ohne es ist der Boden das Gelände der CityJSON-Eingabe, falls sie eines hat, sonst wird er unter den tiefsten Gebäudepunkten angenommen.&lt;br&gt;&lt;b&gt;KBS&lt;/b&gt;: erforderlich für STL, OBJ, PLY und OFF, die keines tragen; das referenceSystem einer CityJSON-Datei wird verwendet, wenn es nicht gesetzt ist.&lt;/p&gt;</translation>
     </message>
     <message>
       <source>&lt;p&gt;The data are put in a grid of cubic voxels; voxels are sorted into ground, building and air (air is flood-filled from above, so closed courtyards and inner surfaces are handled); face-connected building voxels form a building block. Blocks lower, smaller or lighter than the thresholds are dropped.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Voxel size&lt;/b&gt;: edge of a voxel in metres; halving it multiplies memory and time by ~8.&lt;br&gt;&lt;b&gt;Minimum height / footprint / volume&lt;/b&gt;: blocks below any of them are discarded.&lt;br&gt;&lt;b&gt;Smoothing passes&lt;/b&gt;: vertex-only Catmull-Clark passes (paper: 3); nodes at the foot of the walls keep their height. &lt;b&gt;Project&lt;/b&gt;: move the smoothed nodes onto moving-least-squares planes of the data. &lt;b&gt;Minimum face quality&lt;/b&gt;: a smoothing or projection move that would leave a worse face is refused (a voxel face scores 0.72).&lt;br&gt;&lt;b&gt;Domain extent&lt;/b&gt;: clip the data; blocks crossing it are closed on its sides.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Blocks&lt;/b&gt;: one MultiPolygonZ per block, its closed outer surface (smoothed and projected). &lt;b&gt;Footprints&lt;/b&gt;: one polygon per block (the columns it covers). Both have the fields block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) and n_voxels of the voxel model, then mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist and max_dist (m, nodes to the data) of the final mesh. &lt;b&gt;Ground surface&lt;/b&gt;: the terrain, in tiles. &lt;b&gt;Mesh file&lt;/b&gt;: closed, conforming surfaces of every block, the ground and the air; the extension picks the format (.msh with physical groups per interface and per region, .vtu, .obj, .stl, .ply); a PNG preview is written beside it.&lt;/p&gt;</source>

@@ -184,28 +184,28 @@
       <translation>Surfaces fermées et conformes de chaque îlot, du sol et de l'air, pour un mailleur éléments finis ou CFD : .msh (gmsh, groupes physiques), .vtu, .obj, .stl ou .ply. Une image PNG est écrite à côté.</translation>
     </message>
     <message>
-      <source>Building mesh (STL/OBJ/PLY/OFF)</source>
-      <translation>Maillage des bâtiments (STL/OBJ/PLY/OFF)</translation>
+      <source>Building mesh (STL/OBJ/PLY/OFF) or CityJSON</source>
+      <translation>Maillage des bâtiments (STL/OBJ/PLY/OFF) ou CityJSON</translation>
     </message>
     <message>
       <source>Ground mesh</source>
       <translation>Maillage du sol</translation>
     </message>
     <message>
-      <source>CRS of the mesh coordinates</source>
-      <translation>SCR des coordonnées du maillage</translation>
+      <source>CRS of the coordinates (required for STL/OBJ/PLY/OFF)</source>
+      <translation>SCR des coordonnées (obligatoire pour STL/OBJ/PLY/OFF)</translation>
     </message>
     <message>
-      <source>Optional terrain mesh; without it the ground passes through the bottom of every building part.</source>
-      <translation>Maillage du terrain, facultatif ; sans lui, le sol passe par le bas de chaque partie de bâtiment.</translation>
+      <source>Optional terrain mesh, or a CityJSON file's terrain (TINRelief); without it the ground is a CityJSON input's own terrain, else it passes through the bottom of every building part.</source>
+      <translation>Maillage du terrain, ou terrain (TINRelief) d'un fichier CityJSON, facultatif ; sans lui, le sol est le terrain de l'entrée CityJSON, sinon il passe par le bas de chaque partie de bâtiment.</translation>
     </message>
     <message>
       <source>Reconstruct building blocks from mesh</source>
       <translation>Reconstruire les îlots bâtis à partir d'un maillage</translation>
     </message>
     <message>
-      <source>&lt;p&gt;Voxel building blocks from a triangle mesh of buildings, e.g. an STL exported from CityGML (also OBJ, PLY, OFF). Triangles may overlap, intersect or leave gaps: they are sampled into points no farther apart than 10% of a voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Ground mesh&lt;/b&gt; [optional]: a mesh of the terrain; without it the ground is taken under the lowest building points.&lt;br&gt;&lt;b&gt;CRS&lt;/b&gt;: required, since STL and most mesh formats carry none.&lt;/p&gt;</source>
-      <translation>&lt;p&gt;Îlots bâtis voxelisés à partir d'un maillage triangulaire de bâtiments, par exemple un STL exporté de CityGML (aussi OBJ, PLY, OFF). Les triangles peuvent se chevaucher, se couper ou laisser des trous : ils sont échantillonnés en points espacés d'au plus 10 % d'un voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Maillage du sol&lt;/b&gt; [facultatif] : un maillage du terrain ; sans lui, le sol est pris sous les points les plus bas des bâtiments.&lt;br&gt;&lt;b&gt;SCR&lt;/b&gt; : obligatoire, le STL et la plupart des formats de maillage n'en portent pas.&lt;/p&gt;</translation>
+      <source>&lt;p&gt;Voxel building blocks from a triangle mesh of buildings, e.g. an STL exported from CityGML (also OBJ, PLY, OFF), or from a CityJSON city model (.json), whose buildings' polygons are triangulated. Triangles may overlap, intersect or leave gaps: they are sampled into points no farther apart than 10% of a voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Ground mesh&lt;/b&gt; [optional]: a mesh of the terrain, or a CityJSON file with a TINRelief; without it the ground is a CityJSON input's own terrain, if it has one, else it is taken under the lowest building points.&lt;br&gt;&lt;b&gt;CRS&lt;/b&gt;: required for STL, OBJ, PLY and OFF, which carry none; a CityJSON file's referenceSystem is used when it is not set.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Îlots bâtis voxelisés à partir d'un maillage triangulaire de bâtiments, par exemple un STL exporté de CityGML (aussi OBJ, PLY, OFF), ou d'une maquette urbaine CityJSON (.json), dont les polygones des bâtiments sont triangulés. Les triangles peuvent se chevaucher, se couper ou laisser des trous : ils sont échantillonnés en points espacés d'au plus 10 % d'un voxel.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Maillage du sol&lt;/b&gt; [facultatif] : un maillage du terrain, ou un fichier CityJSON avec un TINRelief ; sans lui, le sol est le terrain de l'entrée CityJSON si elle en a un, sinon il est pris sous les points les plus bas des bâtiments.&lt;br&gt;&lt;b&gt;SCR&lt;/b&gt; : obligatoire pour STL, OBJ, PLY et OFF, qui n'en portent pas ; le referenceSystem d'un fichier CityJSON est utilisé s'il n'est pas donné.&lt;/p&gt;</translation>
     </message>
     <message>
       <source>&lt;p&gt;The data are put in a grid of cubic voxels; voxels are sorted into ground, building and air (air is flood-filled from above, so closed courtyards and inner surfaces are handled); face-connected building voxels form a building block. Blocks lower, smaller or lighter than the thresholds are dropped.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Voxel size&lt;/b&gt;: edge of a voxel in metres; halving it multiplies memory and time by ~8.&lt;br&gt;&lt;b&gt;Minimum height / footprint / volume&lt;/b&gt;: blocks below any of them are discarded.&lt;br&gt;&lt;b&gt;Smoothing passes&lt;/b&gt;: vertex-only Catmull-Clark passes (paper: 3); nodes at the foot of the walls keep their height. &lt;b&gt;Project&lt;/b&gt;: move the smoothed nodes onto moving-least-squares planes of the data. &lt;b&gt;Minimum face quality&lt;/b&gt;: a smoothing or projection move that would leave a worse face is refused (a voxel face scores 0.72).&lt;br&gt;&lt;b&gt;Domain extent&lt;/b&gt;: clip the data; blocks crossing it are closed on its sides.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Blocks&lt;/b&gt;: one MultiPolygonZ per block, its closed outer surface (smoothed and projected). &lt;b&gt;Footprints&lt;/b&gt;: one polygon per block (the columns it covers). Both have the fields block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) and n_voxels of the voxel model, then mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist and max_dist (m, nodes to the data) of the final mesh. &lt;b&gt;Ground surface&lt;/b&gt;: the terrain, in tiles. &lt;b&gt;Mesh file&lt;/b&gt;: closed, conforming surfaces of every block, the ground and the air; the extension picks the format (.msh with physical groups per interface and per region, .vtu, .obj, .stl, .ply); a PNG preview is written beside it.&lt;/p&gt;</source>

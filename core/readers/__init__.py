@@ -1,11 +1,13 @@
-"""Input readers: classified LiDAR points (LAS/LAZ) and triangle meshes (STL/OBJ/PLY/OFF).
+"""Input readers: classified LiDAR points (LAS/LAZ), triangle meshes (STL/OBJ/PLY/OFF) and
+CityJSON city models (their buildings and terrain, triangulated).
 
 Both return world coordinates as float64 in the CRS of the input; nothing here
 depends on QGIS.
 """
 
 from .las import LabelledPoints, parse_classes, read_point_clouds
-from .mesh import MESH_SUFFIXES, Triangles, base_points, edge_counts, read_triangles
+from .cityjson import CityModel, is_cityjson, read_cityjson
+from .mesh import MESH_SUFFIXES, Triangles, base_points, clean_triangles, edge_counts, read_triangles
 
 __all__ = [
     "LabelledPoints",
@@ -14,6 +16,10 @@ __all__ = [
     "MESH_SUFFIXES",
     "Triangles",
     "read_triangles",
+    "clean_triangles",
+    "CityModel",
+    "is_cityjson",
+    "read_cityjson",
     "base_points",
     "edge_counts",
 ]

@@ -36,7 +36,7 @@ from ..errors import Cancelled, UrbanvoxError
 from ..topology import run_starts
 from ..vectors import finite_rows
 
-__all__ = ["MESH_SUFFIXES", "Triangles", "read_triangles", "base_points", "edge_counts"]
+__all__ = ["MESH_SUFFIXES", "Triangles", "read_triangles", "clean_triangles", "base_points", "edge_counts"]
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".off")
 
@@ -156,13 +156,32 @@ def read_triangles(path: "str | os.PathLike[str]", is_cancelled: Optional[Callab
     if suffix not in MESH_SUFFIXES:
         raise UrbanvoxError(
             f"{path}: mesh format '{suffix or 'no suffix'}' is not supported; use one of "
-            f"{', '.join(MESH_SUFFIXES)} (convert CityGML/CityJSON to STL or OBJ first)."
+            f"{', '.join(MESH_SUFFIXES)}, or a CityJSON file (.json; convert CityGML to CityJSON, e.g. with "
+            "citygml-tools, or to STL first)."
         )
     if not os.path.isfile(path):
         raise UrbanvoxError(f"Mesh file {path} does not exist; check the path.")
     _check_cancel(is_cancelled)
     vertices, faces = _load(path)
     _check_cancel(is_cancelled)
+    return clean_triangles(vertices, faces, path, is_cancelled)
+
+
+def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
+                    is_cancelled: Optional[Callable[[], bool]] = None) -> Triangles:
+    """The triangles ``faces`` of ``vertices`` read from ``path``, cleaned for
+    sampling as :func:`read_triangles` describes (also for the triangles of a
+    CityJSON file, :mod:`core.readers.cityjson`).
+
+    Example
+    -------
+    >>> vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 0], [2, 0, 0]], float)
+    >>> tris = clean_triangles(vertices, np.array([[0, 1, 2], [3, 1, 2], [0, 1, 4]]), "a.obj")
+    >>> tris.vertices.tolist(), tris.faces.tolist(), tris.n_dropped
+    ([[0.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]], [[0, 2, 1]], 1)
+    >>> tris.warnings
+    ['dropped 1 degenerate (zero-area) triangles of 3.', 'removed 1 duplicated triangles.']
+    """
     n_in = len(faces)
     warnings: List[str] = []
 

@@ -285,7 +285,8 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         "GROUND_CLASSES": "ASPRS classification codes of the ground points, comma-separated (standard: 2).",
         "BUILDING_CLASSES": "Classification codes of the building points, comma-separated (standard: 6); "
                             "vegetation, noise and other codes are ignored.",
-        "GROUND": "Optional terrain mesh; without it the ground passes through the bottom of every building part.",
+        "GROUND": "Optional terrain mesh, or a CityJSON file's terrain (TINRelief); without it the ground is a "
+                  "CityJSON input's own terrain, else it passes through the bottom of every building part.",
         "VOXEL_SIZE": "Edge of a voxel in metres. Details smaller than about a voxel disappear; halving it "
                       "costs about 8 times the memory and time.",
         "MIN_HEIGHT": "Blocks lower than this (m, top above the ground under them) are dropped.",

@@ -1,11 +1,12 @@
-"""``urbanvox:reconstructfrommesh``: building blocks from a triangle mesh (CityGML-derived STL, OBJ, PLY, OFF)."""
+"""``urbanvox:reconstructfrommesh``: building blocks from a triangle mesh (CityGML-derived STL, OBJ, PLY, OFF)
+or a CityJSON city model."""
 
 from qgis.core import QgsProcessingParameterFile
 
 from ..compat import FILE_BEHAVIOR
 from .base import BASE_MODULES, UrbanvoxAlgorithm
 
-MESH_FILTER = "Meshes (*.stl *.obj *.ply *.off);;All files (*.*)"
+MESH_FILTER = "Meshes and CityJSON (*.stl *.obj *.ply *.off *.json);;All files (*.*)"
 
 
 class ReconstructFromMesh(UrbanvoxAlgorithm):
@@ -20,17 +21,21 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
     def shortHelpString(self):  # noqa: N802 (QGIS API name)
         return self.tr(
             "<p>Voxel building blocks from a triangle mesh of buildings, e.g. an STL exported from CityGML "
-            "(also OBJ, PLY, OFF). Triangles may overlap, intersect or leave gaps: they are sampled into points "
+            "(also OBJ, PLY, OFF), or from a CityJSON city model (.json), whose buildings' polygons are "
+            "triangulated. Triangles may overlap, intersect or leave gaps: they are sampled into points "
             "no farther apart than 10% of a voxel.</p>"
-            "<p><b>Ground mesh</b> [optional]: a mesh of the terrain; without it the ground is taken under the "
-            "lowest building points.<br>"
-            "<b>CRS</b>: required, since STL and most mesh formats carry none.</p>"
+            "<p><b>Ground mesh</b> [optional]: a mesh of the terrain, or a CityJSON file with a TINRelief; "
+            "without it the ground is a CityJSON input's own terrain, if it has one, else it is taken under "
+            "the lowest building points.<br>"
+            "<b>CRS</b>: required for STL, OBJ, PLY and OFF, which carry none; a CityJSON file's "
+            "referenceSystem is used when it is not set.</p>"
         ) + self.tr(self.COMMON_HELP) + self.helpLink()
 
     def addInputParameters(self):  # noqa: N802
         self.addParameter(
             QgsProcessingParameterFile(
-                self.INPUT, self.tr("Building mesh (STL/OBJ/PLY/OFF)"), behavior=FILE_BEHAVIOR, fileFilter=MESH_FILTER
+                self.INPUT, self.tr("Building mesh (STL/OBJ/PLY/OFF) or CityJSON"), behavior=FILE_BEHAVIOR,
+                fileFilter=MESH_FILTER
             )
         )
         self.addParameter(
@@ -42,9 +47,13 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
                 optional=True,
             )
         )
-        self.addCrsParameter("CRS of the mesh coordinates", optional=False)
+        # Optional: a CityJSON file may name its own; a mesh without it stops with a message saying so.
+        self.addCrsParameter("CRS of the coordinates (required for STL/OBJ/PLY/OFF)", optional=True)
 
     def requiredModules(self, parameters, context):  # noqa: N802
+        files = [self.parameterAsFile(parameters, name, context) for name in (self.INPUT, self.GROUND)]
+        if all(not path or path.lower().endswith(".json") for path in files):
+            return BASE_MODULES  # CityJSON: read with json and shapely
         return BASE_MODULES + ("trimesh",)
 
     def reconstruct(self, pipeline, parameters, context, params, tiles, progress, is_cancelled):

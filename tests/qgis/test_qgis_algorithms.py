@@ -136,6 +136,15 @@ def test_mesh_on_the_synthetic_district(processing, district, tmp_path):
     check_against_truth(footprints, district, volume_tolerance=0.15)
 
 
+def test_a_mesh_without_crs_is_refused_before_anything_is_written(processing, district, tmp_path):
+    from qgis.core import QgsProcessingException
+
+    gpkg = tmp_path / "nocrs.gpkg"
+    with pytest.raises(QgsProcessingException, match=r"district.stl is a mesh, which carries no CRS: set the CRS"):
+        processing.run("urbanvox:reconstructfrommesh", {"INPUT": str(district.stl), **gpkg_outputs(gpkg)})
+    assert not gpkg.exists()
+
+
 def test_thresholds_drop_blocks(processing, district, tmp_path):
     params = {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0}
     low = processing.run("urbanvox:reconstructfrompointcloud", {**params, **gpkg_outputs(tmp_path / "low.gpkg")})

@@ -106,8 +106,10 @@ def test_mesh_parameters(urbanvox_plugin):
     optional = QgsProcessingParameterDefinition.Flag.FlagOptional
     alg = algorithm("urbanvox:reconstructfrommesh")
     assert "*.stl" in alg.parameterDefinition("INPUT").fileFilter()
+    assert "*.json" in alg.parameterDefinition("INPUT").fileFilter()  # CityJSON
     assert alg.parameterDefinition("GROUND").flags() & optional
-    assert not alg.parameterDefinition("CRS").flags() & optional  # STL carries no CRS
+    # Optional: a CityJSON file names its own; an STL without it stops with a message (test_qgis_algorithms).
+    assert alg.parameterDefinition("CRS").flags() & optional
 
 
 def test_missing_python_package_gives_the_pip_command(processing, district, tmp_path, monkeypatch):

@@ -90,6 +90,19 @@ def test_zurich_lod2_mesh(qgis_app, qgis_process, shared_data, tmp_path):
     assert 140e3 <= results["TOTAL_VOLUME"] <= 200e3
 
 
+def test_zurich_cityjson_takes_its_crs_from_the_file(qgis_app, qgis_process, shared_data, tmp_path):
+    """The CityJSON the STL above was made from, without a CRS parameter: its referenceSystem."""
+    path = shared_data / "cityjson/zurich_subset_lod2.json"
+    if not path.exists():
+        pytest.skip(f"{path} not found")
+    gpkg = tmp_path / "out.gpkg"
+    results = run(qgis_process, "urbanvox:reconstructfrommesh", INPUT=str(path), VOXEL_SIZE=1.0,
+                  **gpkg_outputs(gpkg))
+    check_layers(results, gpkg, "EPSG:2056")
+    assert results["BLOCK_COUNT"] == 49
+    assert results["TOTAL_VOLUME"] == pytest.approx(171_200, rel=0.003)
+
+
 def test_montpellier_six_files_tiled_on_two_workers(qgis_app, qgis_process, shared_data, tmp_path):
     """The six tiles as six INPUT values, once on one grid and once in 50 m tiles on two Dask
     workers: the same blocks with the same volumes."""

@@ -1,0 +1,234 @@
+"""Read CityJSON city models: the buildings' surfaces as triangles, the terrain, the CRS.
+
+The building meshes the paper voxelises (§2) come from CityGML; CityJSON is its
+JSON encoding, in which many LoD2 models are delivered (3D BAG, cities' open
+data). A city object's geometry is a set of planar polygons, some with holes,
+that need not close a volume, with overlaps where parts meet: the quality the
+method was made for. So the polygons are triangulated and handed to the mesh
+method like any building mesh (:func:`core.readers.mesh.clean_triangles`).
+
+- Buildings: the objects of type ``Building``, ``BuildingPart`` and
+  ``BuildingInstallation``, each with its geometries of the highest LoD it has.
+- Terrain: the ``TINRelief`` objects, if there are any: the ground when no
+  ground mesh is given.
+- CRS: ``metadata.referenceSystem`` (an OGC URL or URN such as
+  ``https://www.opengis.net/def/crs/EPSG/0/7415``); a file without it needs
+  the CRS parameter, like an STL.
+
+Other objects (roads, vegetation, water...) and geometry templates are left
+out, with a warning that counts them.
+
+Example
+-------
+>>> import json, os, tempfile
+>>> box = {"type": "CityJSON", "version": "2.0",
+...        "transform": {"scale": [0.01, 0.01, 0.01], "translate": [1000.0, 2000.0, 0.0]},
+...        "metadata": {"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/2056"},
+...        "vertices": [[0, 0, 0], [1000, 0, 0], [1000, 800, 0], [0, 800, 0],
+...                     [0, 0, 600], [1000, 0, 600], [1000, 800, 600], [0, 800, 600]],
+...        "CityObjects": {"b1": {"type": "Building", "geometry": [{"type": "Solid", "lod": "2.2",
+...            "boundaries": [[[[0, 3, 2, 1]], [[4, 5, 6, 7]], [[0, 1, 5, 4]], [[1, 2, 6, 5]],
+...                            [[2, 3, 7, 6]], [[3, 0, 4, 7]]]]}]}}}
+>>> path = os.path.join(tempfile.mkdtemp(), "box.city.json")
+>>> with open(path, "w") as f:
+...     json.dump(box, f)
+>>> city = read_cityjson(path)
+>>> city.buildings.faces.shape, city.crs.to_epsg(), city.terrain is None
+((12, 3), 2056, True)
+>>> city.buildings.vertices.min(axis=0).tolist(), city.buildings.vertices.max(axis=0).tolist()
+([1000.0, 2000.0, 0.0], [1010.0, 2008.0, 6.0])
+"""
+from __future__ import annotations
+
+import json
+import os
+from collections import Counter
+from dataclasses import dataclass, field
+from itertools import chain
+from typing import Callable, Optional
+
+import numpy as np
+
+from ..errors import Cancelled, UrbanvoxError
+from ..polygons import triangulate_polygons
+from .mesh import Triangles, clean_triangles
+
+__all__ = ["CityModel", "read_cityjson", "is_cityjson", "BUILDING_TYPES", "TERRAIN_TYPES"]
+
+#: City objects whose surfaces are the buildings.
+BUILDING_TYPES = frozenset({"Building", "BuildingPart", "BuildingInstallation"})
+#: City objects whose surfaces are the terrain.
+TERRAIN_TYPES = frozenset({"TINRelief"})
+#: Geometry types with surfaces, and how many levels of lists lie above their surfaces.
+SURFACE_LEVELS = {"MultiSurface": 0, "CompositeSurface": 0, "Solid": 1, "MultiSolid": 2, "CompositeSolid": 2}
+
+
+@dataclass
+class CityModel:
+    """The parts of a CityJSON file the method uses.
+
+    Attributes
+    ----------
+    buildings : Triangles or None
+        The buildings' surfaces, triangulated and cleaned; None in a file of
+        terrain only.
+    terrain : Triangles or None
+        The ``TINRelief`` surfaces, when the file has any.
+    crs : pyproj.CRS or None
+        From ``metadata.referenceSystem``; None when the file names none.
+    warnings : list of str
+    """
+
+    buildings: Optional[Triangles]
+    terrain: Optional[Triangles]
+    crs: object
+    warnings: list = field(default_factory=list)
+
+
+def is_cityjson(path: "str | os.PathLike[str]") -> bool:
+    """Whether ``path`` names a CityJSON file (``.json``, ``.city.json``).
+
+    Example
+    -------
+    >>> is_cityjson("rotterdam.city.json"), is_cityjson("zurich.stl")
+    (True, False)
+    """
+    return os.fspath(path).lower().endswith(".json")
+
+
+def read_cityjson(path: "str | os.PathLike[str]",
+                  is_cancelled: Optional[Callable[[], bool]] = None) -> CityModel:
+    """Read a CityJSON file's buildings, terrain and CRS (see the module doc).
+
+    Parameters
+    ----------
+    path : str or path-like
+        A CityJSON file (version 1.0 to 2.0).
+    is_cancelled : callable, optional
+        Zero-argument callable; True raises :class:`~core.errors.Cancelled`.
+
+    Returns
+    -------
+    CityModel
+
+    Raises
+    ------
+    UrbanvoxError
+        Missing file, not CityJSON, neither building nor terrain surfaces,
+        vertex indices out of range, or no triangle left after cleaning.
+    """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise UrbanvoxError(f"CityJSON file {path} does not exist; check the path.")
+    try:
+        with open(path, "rb") as file:
+            data = json.load(file)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise UrbanvoxError(f"{path} is not a JSON file ({exc}); give a CityJSON file (.json, .city.json).") from exc
+    if not isinstance(data, dict) or data.get("type") != "CityJSON" or not isinstance(data.get("CityObjects"), dict):
+        raise UrbanvoxError(f"{path} is JSON but not CityJSON (no \"type\": \"CityJSON\" with CityObjects); "
+                            "CityJSON Sequences (.jsonl) and GeoJSON are not read.")
+    _check_cancel(is_cancelled)
+    vertices = _vertices(data, path)
+    warnings: list = []
+    chosen = {"building": [], "terrain": []}
+    left_out: Counter = Counter()
+    for city_object in data["CityObjects"].values():  # objects, not faces: thousands in a district
+        kind = city_object.get("type", "")
+        role = "building" if kind in BUILDING_TYPES else "terrain" if kind in TERRAIN_TYPES else None
+        geometries = city_object.get("geometry") or []
+        if role is None:
+            left_out[kind] += len(geometries)
+            continue
+        with_surfaces = [g for g in geometries if g.get("type") in SURFACE_LEVELS and g.get("boundaries")]
+        for geometry in geometries:
+            if geometry.get("type") not in SURFACE_LEVELS:  # templates, points, lines
+                left_out[f"{kind} {geometry.get('type')}"] += 1
+        if with_surfaces:
+            top = max(_lod(g) for g in with_surfaces)
+            chosen[role].extend(g for g in with_surfaces if _lod(g) == top)
+    if not chosen["building"] and not chosen["terrain"]:
+        raise UrbanvoxError(f"{path} has no building or terrain surfaces (Building, BuildingPart, "
+                            "BuildingInstallation or TINRelief objects with MultiSurface, CompositeSurface or "
+                            "Solid geometries).")
+    if +left_out:
+        listed = ", ".join(f"{n} {kind}" for kind, n in sorted((+left_out).items()))
+        warnings.append(f"{os.path.basename(path)}: left out geometries that are not building or terrain "
+                        f"surfaces: {listed}.")
+    _check_cancel(is_cancelled)
+    buildings, terrain = (_triangles(vertices, chosen[role], path, is_cancelled) if chosen[role] else None
+                          for role in ("building", "terrain"))
+    crs = _reference_system(data.get("metadata") or {}, path, warnings)
+    for part in (buildings, terrain):
+        warnings += part.warnings if part is not None else []
+    return CityModel(buildings=buildings, terrain=terrain, crs=crs, warnings=warnings)
+
+
+def _check_cancel(is_cancelled: Optional[Callable[[], bool]]) -> None:
+    if is_cancelled is not None and is_cancelled():
+        raise Cancelled()
+
+
+def _vertices(data: dict, path: str) -> np.ndarray:
+    """The file's vertices in world coordinates (its ``transform`` applied)."""
+    try:
+        vertices = np.asarray(data.get("vertices") or np.empty((0, 3)), dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise UrbanvoxError(f"{path}: the vertices are not a list of [x, y, z] numbers ({exc}).") from exc
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
+        raise UrbanvoxError(f"{path}: no vertices, or vertices that are not [x, y, z]; the file holds no geometry.")
+    transform = data.get("transform")
+    if transform:
+        vertices = vertices * np.asarray(transform.get("scale", (1, 1, 1)), dtype=np.float64) \
+            + np.asarray(transform.get("translate", (0, 0, 0)), dtype=np.float64)
+    return vertices
+
+
+def _lod(geometry: dict) -> tuple:
+    """A geometry's level of detail as a comparable tuple: "2.2" -> (2, 2), 1 -> (1,)."""
+    try:
+        return tuple(int(part) for part in str(geometry.get("lod", 0)).split("."))
+    except ValueError:
+        return (0,)
+
+
+def _triangles(vertices: np.ndarray, geometries: list, path: str,
+               is_cancelled: Optional[Callable[[], bool]]) -> Triangles:
+    """The geometries' polygons as cleaned triangles of ``vertices``."""
+    surfaces: list = []
+    try:
+        for geometry in geometries:
+            boundaries = geometry["boundaries"]
+            for _ in range(SURFACE_LEVELS[geometry["type"]]):
+                boundaries = list(chain.from_iterable(boundaries))
+            surfaces.extend(boundaries)
+        # The nesting flattened in C (chain, map): no Python loop per polygon or vertex.
+        rings = list(chain.from_iterable(surfaces))
+        ring_counts = np.fromiter(map(len, surfaces), dtype=np.int64, count=len(surfaces))
+        ring_sizes = np.fromiter(map(len, rings), dtype=np.int64, count=len(rings))
+        index = np.fromiter(chain.from_iterable(rings), dtype=np.int64, count=int(ring_sizes.sum()))
+    except (TypeError, ValueError) as exc:
+        raise UrbanvoxError(f"{path}: a surface's boundary is not nested as its geometry type says ({exc}).") from exc
+    if len(index) and (index.min() < 0 or index.max() >= len(vertices)):
+        raise UrbanvoxError(f"{path}: a boundary refers to vertex {int(index.max())}, but the file has "
+                            f"{len(vertices)} vertices; the file is damaged.")
+    _check_cancel(is_cancelled)
+    all_vertices, faces = triangulate_polygons(vertices, index, ring_sizes, ring_counts)
+    if len(faces) == 0:
+        raise UrbanvoxError(f"{path}: no surface has an area (every polygon is degenerate).")
+    return clean_triangles(all_vertices, faces, path, is_cancelled)
+
+
+def _reference_system(metadata: dict, path: str, warnings: list):
+    """``metadata.referenceSystem`` as a pyproj CRS, None when absent or not understood (with a warning)."""
+    import pyproj
+
+    text = metadata.get("referenceSystem") or metadata.get("crs")
+    if not text:
+        return None
+    try:
+        return pyproj.CRS.from_user_input(str(text))
+    except pyproj.exceptions.CRSError:
+        warnings.append(f"{os.path.basename(path)}: referenceSystem {text!r} is not a CRS PROJ knows; "
+                        "it is ignored (set the CRS parameter).")
+        return None
