@@ -213,6 +213,26 @@ def covered_air_cells(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.flatnonzero(covered), top.astype(np.int64)
 
 
+def hollow_share(labels: np.ndarray) -> float:
+    """The share of the building columns that hold air under a solid cell.
+
+    A closed building fills its columns from the ground to its roof
+    (:func:`classify_voxels`, step 5), so only passages and overhangs leave
+    air under it. A model whose walls are missing lets the air in, and most
+    of its columns are then hollow: the mesh pipeline warns of it.
+
+    Examples
+    --------
+    >>> lab = np.full((1, 2, 4), AIR, np.uint8); lab[0, :, 0] = GROUND; lab[0, :, 3] = BUILDING
+    >>> lab[0, 0, 1:3] = BUILDING  # a solid column and a roof over air
+    >>> hollow_share(lab)
+    0.5
+    """
+    cells, _ = covered_air_cells(labels)
+    columns = (labels == BUILDING).any(axis=2).sum()
+    return float(len(np.unique(cells // labels.shape[2])) / columns) if columns else 0.0
+
+
 def roof_hole_columns(building_columns: np.ndarray, ground_columns: np.ndarray,
                       building_top_k: np.ndarray, max_hole_cells: int,
                       min_building_share: float = 0.5) -> np.ndarray:

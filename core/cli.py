@@ -38,6 +38,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ground-classes", default="2", help="LAS ground class codes (default 2)")
     p.add_argument("--building-classes", default="6", help="LAS building class codes (default 6)")
     p.add_argument("--ground-mesh", type=Path, help="terrain mesh (or CityJSON terrain) for a mesh input")
+    p.add_argument("--fill-under-roofs", action="store_true",
+                   help="mesh input: every column solid up to its roof (for models with missing walls)")
     p.add_argument("--extent", type=float, nargs=4, metavar=("XMIN", "YMIN", "XMAX", "YMAX"),
                    help="domain extent in the data's CRS")
     p.add_argument("--smoothing", type=int, default=3, help="Catmull-Clark passes (default 3)")
@@ -81,7 +83,8 @@ def main(argv: list[str] | None = None) -> int:
             if not args.crs and not is_cityjson(args.inputs[0]):
                 raise UrbanvoxError("A mesh carries no CRS: give it with --crs (e.g. --crs EPSG:2056).")
             result = reconstruct_mesh(args.inputs[0], crs=args.crs, ground_path=args.ground_mesh,
-                                      params=params, tiles=tiles, progress=progress)
+                                      params=params, fill_under_roofs=args.fill_under_roofs, tiles=tiles,
+                                      progress=progress)
         else:
             raise UrbanvoxError("Give LAS/LAZ files, or a single building mesh.")
         if args.mesh:

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -36,7 +36,7 @@ import numpy as np
 
 from . import jit
 from .blocks import block_columns, blocks_above_thresholds
-from .classify import classify_voxels, roof_hole_columns
+from .classify import classify_voxels, hollow_share, roof_hole_columns
 from .clusters import merge as merge_clusters
 from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
@@ -57,6 +57,11 @@ from .surface import SurfaceModel, region_volume
 from .tiles import TileOptions, reconstruct_tiled
 from .vectors import all_finite, finite_rows
 
+#: Above this share of hollow building columns (air under a roof), a mesh's
+#: surfaces are taken for open (core.classify.hollow_share): closed models
+#: measured 0-5 % (passages, overhangs), the Rotterdam CityJSON, whose row
+#: houses lack their party walls, 78 %.
+HOLLOW_WARNING = 0.25
 
 
 @dataclass
@@ -145,7 +150,7 @@ def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: st
 
 @reusing_freed_memory()
 def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: str | Path | None = None,
-                     params: ReconstructionParams | None = None,
+                     params: ReconstructionParams | None = None, fill_under_roofs: bool = False,
                      tiles: TileOptions | None = None,
                      progress: Progress | None = None,
                      is_cancelled: CancelCheck | None = None) -> Reconstruction:
@@ -158,6 +163,12 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     one, else it passes through the bottom of every building part
     (:func:`core.readers.mesh.base_points`). ``crs`` is needed unless the
     file names one (CityJSON's ``referenceSystem``; a mesh never does).
+
+    ``fill_under_roofs`` makes every column solid from the ground up to its
+    highest building point, as for airborne LiDAR: for models whose walls are
+    missing (the air would fill them, with a warning), at the price of
+    passages and overhangs. Unlike LiDAR, no roof hole is filled: a mesh has
+    no missing returns, and a courtyard is air.
     """
     from .readers.cityjson import is_cityjson, read_cityjson
     from .readers.mesh import base_points, read_triangles
@@ -192,7 +203,9 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
         ground = sample_thinned(ground_triangles.corners(), 0.1 * h, h / 3, is_cancelled)
     else:
         ground = base_points(triangles, h, unit=unit)
-    return reconstruct_points(ground, building, crs_obj, params, airborne=False, warnings=warnings,
+    if fill_under_roofs:
+        params = replace(params, max_roof_hole_area=0.0)
+    return reconstruct_points(ground, building, crs_obj, params, airborne=fill_under_roofs, warnings=warnings,
                               tiles=tiles, progress=progress, is_cancelled=is_cancelled,
                               overwrite_points=True)
 
@@ -346,6 +359,12 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     labels = classify_voxels(grid, top_k, building_cells, seeds, fill_to_top=airborne,
                              is_cancelled=is_cancelled)
     make_well_composed(labels, is_cancelled=is_cancelled)
+    if not airborne:
+        # Said without the share, so that clusters and tiles say it once (their warnings are merged).
+        if hollow_share(labels) > HOLLOW_WARNING:
+            warnings.append(f"Over {HOLLOW_WARNING:.0%} of the building columns have air under a roof: the "
+                            "surfaces are probably not closed (missing walls let the air in) and the blocks are "
+                            "hollow. FILL_UNDER_ROOFS (--fill-under-roofs) fills every column up to its roof.")
     lap("classify")
 
     report(0.45, "Building blocks")

@@ -99,6 +99,18 @@ def test_a_star_is_not_fanned_and_short_rings_are_left_out():
     assert all_vertices[faces][..., 2].max() == 3.0 and not (all_vertices[faces][..., 0] >= 5).any()
 
 
+def test_an_older_shapely_gets_the_pip_command(monkeypatch):
+    import shapely
+
+    monkeypatch.delattr(shapely, "constrained_delaunay_triangles")
+    polygons, _ = _on_planes(None)
+    vertices, index, sizes, counts = _rings(polygons[2:4])  # a convex quad and a triangle: fans
+    assert len(triangulate_polygons(vertices, index, sizes, counts)[1]) == 3
+    vertices, index, sizes, counts = _rings(polygons[:1])  # the L: not a fan
+    with pytest.raises(UrbanvoxError, match=r"shapely 2.1 or later: python3 -m pip install --upgrade 'shapely>=2.1'"):
+        triangulate_polygons(vertices, index, sizes, counts)
+
+
 def test_newell_normals_are_twice_the_vector_area():
     polygons, areas = _on_planes(None)
     vertices, _, sizes, counts = _rings([[p[0]] for p in polygons])
@@ -264,11 +276,45 @@ def test_den_haag_solids_give_blocks_of_their_volume(shared_data):
     assert solids < surfaces < float(result.blocks.volume.sum())
 
 
-def test_rotterdam_needs_its_crs_and_reaches_its_roofs(shared_data):
+def _volume_under_roofs(path):
+    """The volume between z = 0 (Rotterdam's ground) and the RoofSurface polygons: each roof
+    triangle's area seen from above times its mean height."""
+    data = json.loads(path.read_text())
+    vertices = np.asarray(data["vertices"], float) * data["transform"]["scale"] + data["transform"]["translate"]
+    roofs = [surface for city_object in data["CityObjects"].values() for geometry in city_object["geometry"]
+             for surface, value in zip(geometry["boundaries"], geometry["semantics"]["values"])
+             if geometry["semantics"]["surfaces"][value]["type"] == "RoofSurface"]
+    rings = [ring for surface in roofs for ring in surface]
+    all_vertices, faces = triangulate_polygons(vertices, np.concatenate(rings), np.array([len(r) for r in rings]),
+                                               np.array([len(surface) for surface in roofs]))
+    corners = all_vertices[faces]
+    plan = np.cross(corners[:, 1, :2] - corners[:, 0, :2], corners[:, 2, :2] - corners[:, 0, :2])
+    return float((0.5 * np.abs(plan) * corners[:, :, 2].mean(axis=1)).sum())
+
+
+def test_rotterdam_without_party_walls_is_hollow_unless_its_columns_are_filled(shared_data):
+    """Rotterdam's row houses lack most of their party walls: the air fills them, with a warning;
+    filled up to their roofs, the blocks' surfaces hold the volume under the roofs."""
     path = shared_data / "cityjson" / "rotterdam_subset.json"
     with pytest.raises(UrbanvoxError, match="no CRS"):
         reconstruct_mesh(path)
-    result = reconstruct_mesh(path, crs="EPSG:28992", params=ReconstructionParams(voxel_size=1.0))
-    highest_roof = float(read_cityjson(path).buildings.vertices[:, 2].max())
-    assert len(result.blocks) >= 1
-    assert float(result.blocks.top_z.max()) == pytest.approx(highest_roof, abs=1.0)
+    under_roofs = _volume_under_roofs(path)
+    assert 31_000 < under_roofs < 31_600
+    params = ReconstructionParams(voxel_size=1.0)
+    hollow = reconstruct_mesh(path, crs="EPSG:28992", params=params)
+    assert [w for w in hollow.warnings if w.startswith("Over 25% of the building columns have air under a roof")]
+    assert float(hollow.measures.volume.sum()) < 0.3 * under_roofs
+    filled = reconstruct_mesh(path, crs="EPSG:28992", params=params, fill_under_roofs=True)
+    assert not [w for w in filled.warnings if "air under a roof" in w]
+    assert float(filled.measures.volume.sum()) == pytest.approx(under_roofs, rel=0.03)
+    assert float(filled.blocks.top_z.max()) == pytest.approx(float(read_cityjson(path).buildings.vertices[:, 2].max()),
+                                                             abs=1.0)
+
+
+def test_filling_under_roofs_leaves_closed_buildings_as_they_are(district):
+    params = ReconstructionParams(voxel_size=2.0, smoothing_iterations=0, project=False)
+    closed = reconstruct_mesh(district.stl, crs=district.crs, params=params)
+    filled = reconstruct_mesh(district.stl, crs=district.crs, params=params, fill_under_roofs=True)
+    assert not [w for w in closed.warnings + filled.warnings if "air under a roof" in w]
+    assert len(filled.blocks) == len(closed.blocks)
+    assert float(filled.blocks.volume.sum()) == pytest.approx(float(closed.blocks.volume.sum()), rel=0.002)

@@ -4,6 +4,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -29,6 +31,33 @@ def test_mesh_without_crs_is_refused_with_the_flag_to_use(district):
     done = run(district.stl, "--voxel-size", 2)
     assert done.returncode == 2
     assert "--crs" in done.stderr
+
+
+def test_a_cityjson_house_without_two_walls_is_filled_with_the_flag(tmp_path):
+    """A 20 x 10 m house in CityJSON (CRS in the file), its floor at 0 on a terrain at -1.2 m and
+    its roof at 9 m, that lacks two of its walls: the air fills it, and the run says so;
+    --fill-under-roofs gives its volume from the terrain to the roof."""
+    corners = [[0, 0, 0], [20, 0, 0], [20, 10, 0], [0, 10, 0], [0, 0, 9], [20, 0, 9], [20, 10, 9], [0, 10, 9],
+               [-10, -10, -1.2], [30, -10, -1.2], [30, 20, -1.2], [-10, 20, -1.2]]
+    floor, roof, south, north = [[0, 3, 2, 1]], [[4, 5, 6, 7]], [[0, 1, 5, 4]], [[2, 3, 7, 6]]
+    house = {"type": "CityJSON", "version": "2.0", "vertices": [[x + 5e5, y + 5e6, z] for x, y, z in corners],
+             "metadata": {"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/32631"},
+             "CityObjects": {
+                 "house": {"type": "Building", "geometry": [
+                     {"type": "MultiSurface", "lod": "2.2", "boundaries": [floor, roof, south, north]}]},
+                 "terrain": {"type": "TINRelief", "geometry": [
+                     {"type": "CompositeSurface", "lod": "1", "boundaries": [[[8, 9, 10]], [[8, 10, 11]]]}]}}}
+    path = tmp_path / "house.city.json"
+    path.write_text(json.dumps(house))
+    volumes = {}
+    for flags in ((), ("--fill-under-roofs",)):
+        report = tmp_path / "report.json"
+        done = run(path, "--voxel-size", 0.5, "--report", report, "--quiet", *flags)
+        assert done.returncode == 0, done.stderr
+        volumes[flags] = sum(block["mesh_volume"] for block in json.loads(report.read_text())["blocks"])
+        assert ("air under a roof" in done.stderr) == (not flags), done.stderr
+    assert volumes[()] < 0.5 * 20 * 10 * 10.2  # nothing left of it, here
+    assert volumes[("--fill-under-roofs",)] == pytest.approx(20 * 10 * 10.2, rel=0.02)
 
 
 def test_missing_file_is_an_error_not_a_traceback(tmp_path):

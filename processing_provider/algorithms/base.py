@@ -287,6 +287,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                             "vegetation, noise and other codes are ignored.",
         "GROUND": "Optional terrain mesh, or a CityJSON file's terrain (TINRelief); without it the ground is a "
                   "CityJSON input's own terrain, else it passes through the bottom of every building part.",
+        "FILL_UNDER_ROOFS": "Make every column solid from the ground up to its roof, as for airborne LiDAR: for "
+                            "city models whose walls are missing (the air would get in and leave the blocks "
+                            "hollow; the run warns of it). Passages and overhangs are filled too.",
         "VOXEL_SIZE": "Edge of a voxel in metres. Details smaller than about a voxel disappear; halving it "
                       "costs about 8 times the memory and time.",
         "MIN_HEIGHT": "Blocks lower than this (m, top above the ground under them) are dropped.",

@@ -1,9 +1,9 @@
 """``urbanvox:reconstructfrommesh``: building blocks from a triangle mesh (CityGML-derived STL, OBJ, PLY, OFF)
 or a CityJSON city model."""
 
-from qgis.core import QgsProcessingParameterFile
+from qgis.core import QgsProcessingParameterBoolean, QgsProcessingParameterFile
 
-from ..compat import FILE_BEHAVIOR
+from ..compat import FILE_BEHAVIOR, FLAG_ADVANCED
 from .base import BASE_MODULES, UrbanvoxAlgorithm
 
 MESH_FILTER = "Meshes and CityJSON (*.stl *.obj *.ply *.off *.json);;All files (*.*)"
@@ -11,6 +11,7 @@ MESH_FILTER = "Meshes and CityJSON (*.stl *.obj *.ply *.off *.json);;All files (
 
 class ReconstructFromMesh(UrbanvoxAlgorithm):
     GROUND = "GROUND"
+    FILL_UNDER_ROOFS = "FILL_UNDER_ROOFS"
 
     def name(self):
         return "reconstructfrommesh"
@@ -28,7 +29,9 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
             "without it the ground is a CityJSON input's own terrain, if it has one, else it is taken under "
             "the lowest building points.<br>"
             "<b>CRS</b>: required for STL, OBJ, PLY and OFF, which carry none; a CityJSON file's "
-            "referenceSystem is used when it is not set.</p>"
+            "referenceSystem is used when it is not set.<br>"
+            "<b>Fill every column up to its roof</b> [advanced]: for models whose walls are missing, which "
+            "the air fills (the run warns of hollow blocks).</p>"
         ) + self.tr(self.COMMON_HELP) + self.helpLink()
 
     def addInputParameters(self):  # noqa: N802
@@ -49,6 +52,10 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
         )
         # Optional: a CityJSON file may name its own; a mesh without it stops with a message saying so.
         self.addCrsParameter("CRS of the coordinates (required for STL/OBJ/PLY/OFF)", optional=True)
+        fill = QgsProcessingParameterBoolean(self.FILL_UNDER_ROOFS, self.tr("Fill every column up to its roof"),
+                                             defaultValue=False)
+        fill.setFlags(fill.flags() | FLAG_ADVANCED)
+        self.addParameter(fill)
 
     def requiredModules(self, parameters, context):  # noqa: N802
         files = [self.parameterAsFile(parameters, name, context) for name in (self.INPUT, self.GROUND)]
@@ -62,6 +69,7 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
             ground_path=self.inputPath(parameters, self.GROUND, context) or None,
             crs=self.crsArgument(parameters, context),
             params=params,
+            fill_under_roofs=self.parameterAsBoolean(parameters, self.FILL_UNDER_ROOFS, context),
             tiles=tiles,
             progress=progress,
             is_cancelled=is_cancelled,

@@ -110,6 +110,8 @@ def test_mesh_parameters(urbanvox_plugin):
     assert alg.parameterDefinition("GROUND").flags() & optional
     # Optional: a CityJSON file names its own; an STL without it stops with a message (test_qgis_algorithms).
     assert alg.parameterDefinition("CRS").flags() & optional
+    fill = alg.parameterDefinition("FILL_UNDER_ROOFS")
+    assert fill.defaultValue() is False and fill.flags() & QgsProcessingParameterDefinition.Flag.FlagAdvanced
 
 
 def test_missing_python_package_gives_the_pip_command(processing, district, tmp_path, monkeypatch):

@@ -103,6 +103,19 @@ def test_zurich_cityjson_takes_its_crs_from_the_file(qgis_app, qgis_process, sha
     assert results["TOTAL_VOLUME"] == pytest.approx(171_200, rel=0.003)
 
 
+def test_rotterdam_cityjson_filled_up_to_its_roofs(qgis_app, qgis_process, shared_data, tmp_path):
+    """Row houses without party walls: FILL_UNDER_ROOFS gives them their volume (core: 31,300 m³
+    under the roofs; voxels at 1 m hold more)."""
+    path = shared_data / "cityjson/rotterdam_subset.json"
+    if not path.exists():
+        pytest.skip(f"{path} not found")
+    gpkg = tmp_path / "out.gpkg"
+    results = run(qgis_process, "urbanvox:reconstructfrommesh", INPUT=str(path), CRS="EPSG:28992",
+                  FILL_UNDER_ROOFS="true", VOXEL_SIZE=1.0, **gpkg_outputs(gpkg))
+    check_layers(results, gpkg, "EPSG:28992")
+    assert 31e3 < results["TOTAL_VOLUME"] < 37e3
+
+
 def test_montpellier_six_files_tiled_on_two_workers(qgis_app, qgis_process, shared_data, tmp_path):
     """The six tiles as six INPUT values, once on one grid and once in 50 m tiles on two Dask
     workers: the same blocks with the same volumes."""
