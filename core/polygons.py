@@ -132,8 +132,9 @@ class _Rings:
 
     def _least_axes(self, rings: np.ndarray) -> np.ndarray:
         """The direction of least spread of each ring's corners (the normal of its best plane)."""
-        corners = np.concatenate([np.arange(s, s + n) for s, n in zip(self.start[rings], self.sizes[rings])])
-        owner = np.repeat(np.arange(len(rings)), self.sizes[rings])
+        sizes = self.sizes[rings]
+        owner = np.repeat(np.arange(len(rings)), sizes)
+        corners = self.start[rings][owner] + np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes)
         offset = self.points[corners] - self.points[self.start[rings]][owner]
         centred = offset - (np.stack([np.bincount(owner, weights=offset[:, c]) for c in range(3)], axis=1)
                             / self.sizes[rings, None])[owner]
