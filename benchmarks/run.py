@@ -280,7 +280,7 @@ def run_baselines(spec: dict, ground, building, crs, params, airborne: bool) -> 
 
     grids = list(bl.pipeline_grids(ground, building, crs, params.voxel_size))
     out: dict = {"binning": bl.binning(grids)}
-    if spec["kind"] == "mesh" and not str(spec["paths"][0]).lower().endswith(".json"):  # trimesh reads no CityJSON
+    if spec["kind"] == "mesh" and not str(spec["paths"][0]).lower().endswith((".json", ".jsonl")):  # no CityJSON
         h = params.voxel_size / metres_per_unit(crs)
         out["trimesh"] = bl.trimesh_voxelise(spec["paths"][0], h)
     m = metres_per_unit(crs)

@@ -191,7 +191,7 @@ def test_the_transform_is_applied_and_a_file_without_crs_needs_the_parameter(tmp
      r"no building or terrain surfaces"),
     ('{"type": "CityJSON", "CityObjects": {"b": {"type": "Building", "geometry": [{"type": "MultiSurface", '
      '"lod": "2", "boundaries": [[[0, 1, 7]]]}]}}, "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]]}',
-     r"refers to vertex 7, but the file has 3 vertices"),
+     r"refers to vertex 7, but its document has 3 vertices"),
     ('{"type": "CityJSON", "CityObjects": {"b": {"type": "Building", "geometry": [{"type": "Solid", '
      '"lod": "2", "boundaries": [[0, 1, 2]]}]}}, "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]]}',
      r"not nested as its geometry type says"),
@@ -259,6 +259,54 @@ def test_zurich_cityjson_gives_the_blocks_of_its_stl(shared_data):
     for result in (from_json, from_stl):
         assert float(result.blocks.volume.sum()) == pytest.approx(171_200, rel=0.003)
         assert float(result.measures.volume.sum()) == pytest.approx(153_500, rel=0.003)
+
+
+def _as_sequence(source, path):
+    """A CityJSON file as a CityJSON Sequence, as cjio exports it: a header line, then a line per
+    top-level object with its parts, numbering their own vertices."""
+    data = json.loads(source.read_text())
+    header = {key: value for key, value in data.items() if key not in ("CityObjects", "vertices")}
+    lines = [json.dumps({**header, "CityObjects": {}, "vertices": []})]
+
+    def renumbered(boundaries, new):
+        if isinstance(boundaries, int):
+            return new.setdefault(boundaries, len(new))
+        return [renumbered(b, new) for b in boundaries]
+
+    for key, city_object in data["CityObjects"].items():
+        if city_object.get("parents"):
+            continue
+        members = [key, *city_object.get("children", [])]
+        new: dict = {}
+        objects = {m: {**data["CityObjects"][m], "geometry": [
+            {**g, "boundaries": renumbered(g["boundaries"], new)} for g in data["CityObjects"][m].get("geometry", [])]}
+            for m in members}
+        vertices = [data["vertices"][old] for old in sorted(new, key=new.get)]
+        lines.append(json.dumps({"type": "CityJSONFeature", "id": key, "CityObjects": objects, "vertices": vertices}))
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_a_cityjson_sequence_gives_the_model_of_its_file(shared_data, tmp_path):
+    """Zurich's model as a CityJSON Sequence (49 features, each numbering its own vertices): the
+    same triangles, blocks and volumes as the file it came from."""
+    source = shared_data / "cityjson" / "zurich_subset_lod2.json"
+    sequence = _as_sequence(source, tmp_path / "zurich.city.jsonl")
+    assert len(sequence.read_text().splitlines()) == 1 + 49
+    whole, lines = read_cityjson(source), read_cityjson(sequence)
+    assert lines.crs == whole.crs and lines.buildings.faces.shape == whole.buildings.faces.shape
+    assert np.array_equal(lines.buildings.vertices, whole.buildings.vertices)  # merged and sorted alike
+    assert _areas(lines.buildings.vertices, lines.buildings.faces).sum() == pytest.approx(
+        _areas(whole.buildings.vertices, whole.buildings.faces).sum(), rel=1e-12)
+    params = ReconstructionParams(voxel_size=2.0, smoothing_iterations=0, project=False)
+    from_lines, from_whole = (reconstruct_mesh(path, params=params) for path in (sequence, source))
+    assert len(from_lines.blocks) == len(from_whole.blocks) == 49
+    assert from_lines.blocks.volume.tolist() == from_whole.blocks.volume.tolist()
+    # A damaged line is named.
+    text = sequence.read_text().splitlines()
+    (tmp_path / "damaged.jsonl").write_text("\n".join(text[:2] + ['{"type": "Feature"}'] + text[3:]))
+    with pytest.raises(UrbanvoxError, match="line 3 is not a CityJSONFeature"):
+        read_cityjson(tmp_path / "damaged.jsonl")
 
 
 def test_den_haag_solids_give_blocks_of_their_volume(shared_data):

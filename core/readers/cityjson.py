@@ -15,6 +15,10 @@ method like any building mesh (:func:`core.readers.mesh.clean_triangles`).
   ``https://www.opengis.net/def/crs/EPSG/0/7415``); a file without it needs
   the CRS parameter, like an STL.
 
+A CityJSON Sequence (``.jsonl``, as 3D BAG's API and ``cjio`` export them) is
+read the same: its first line holds the transform and the metadata, every
+other line a feature (a building) with vertices of its own.
+
 Other objects (roads, vegetation, water...) and geometry templates are left
 out, with a warning that counts them.
 
@@ -86,14 +90,15 @@ class CityModel:
 
 
 def is_cityjson(path: "str | os.PathLike[str]") -> bool:
-    """Whether ``path`` names a CityJSON file (``.json``, ``.city.json``).
+    """Whether ``path`` names a CityJSON file (``.json``, ``.city.json``) or a CityJSON
+    Sequence (``.jsonl``, ``.city.jsonl``).
 
     Example
     -------
-    >>> is_cityjson("rotterdam.city.json"), is_cityjson("zurich.stl")
-    (True, False)
+    >>> is_cityjson("rotterdam.city.json"), is_cityjson("3dbag.city.jsonl"), is_cityjson("zurich.stl")
+    (True, True, False)
     """
-    return os.fspath(path).lower().endswith(".json")
+    return os.fspath(path).lower().endswith((".json", ".jsonl"))
 
 
 def read_cityjson(path: "str | os.PathLike[str]",
@@ -103,7 +108,7 @@ def read_cityjson(path: "str | os.PathLike[str]",
     Parameters
     ----------
     path : str or path-like
-        A CityJSON file (version 1.0 to 2.0).
+        A CityJSON file (version 1.0 to 2.0) or a CityJSON Sequence (``.jsonl``).
     is_cancelled : callable, optional
         Zero-argument callable; True raises :class:`~core.errors.Cancelled`.
 
@@ -120,33 +125,35 @@ def read_cityjson(path: "str | os.PathLike[str]",
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise UrbanvoxError(f"CityJSON file {path} does not exist; check the path.")
-    try:
-        with open(path, "rb") as file:
-            data = json.load(file)
-    except (ValueError, UnicodeDecodeError) as exc:
-        raise UrbanvoxError(f"{path} is not a JSON file ({exc}); give a CityJSON file (.json, .city.json).") from exc
-    if not isinstance(data, dict) or data.get("type") != "CityJSON" or not isinstance(data.get("CityObjects"), dict):
-        raise UrbanvoxError(f"{path} is JSON but not CityJSON (no \"type\": \"CityJSON\" with CityObjects); "
-                            "CityJSON Sequences (.jsonl) and GeoJSON are not read.")
+    header, documents = _documents(path)
     _check_cancel(is_cancelled)
-    vertices = _vertices(data, path)
     warnings: list = []
-    chosen = {"building": [], "terrain": []}
+    # The geometries chosen, each with its document's first vertex and number of vertices.
+    chosen: dict = {"building": [], "terrain": []}
     left_out: Counter = Counter()
-    for city_object in data["CityObjects"].values():  # objects, not faces: thousands in a district
-        kind = city_object.get("type", "")
-        role = "building" if kind in BUILDING_TYPES else "terrain" if kind in TERRAIN_TYPES else None
-        geometries = city_object.get("geometry") or []
-        if role is None:
-            left_out[kind] += len(geometries)
-            continue
-        with_surfaces = [g for g in geometries if g.get("type") in SURFACE_LEVELS and g.get("boundaries")]
-        for geometry in geometries:
-            if geometry.get("type") not in SURFACE_LEVELS:  # templates, points, lines
-                left_out[f"{kind} {geometry.get('type')}"] += 1
-        if with_surfaces:
-            top = max(_lod(g) for g in with_surfaces)
-            chosen[role].extend(g for g in with_surfaces if _lod(g) == top)
+    vertices = []
+    first_vertex = 0
+    for document in documents:  # one, or a sequence's features (a building each)
+        vertices.append(_vertices(document, header, path))
+        own = (first_vertex, len(vertices[-1]))
+        for city_object in document["CityObjects"].values():  # objects, not faces
+            kind = city_object.get("type", "")
+            role = "building" if kind in BUILDING_TYPES else "terrain" if kind in TERRAIN_TYPES else None
+            geometries = city_object.get("geometry") or []
+            if role is None:
+                left_out[kind] += len(geometries)
+                continue
+            with_surfaces = [g for g in geometries if g.get("type") in SURFACE_LEVELS and g.get("boundaries")]
+            for geometry in geometries:
+                if geometry.get("type") not in SURFACE_LEVELS:  # templates, points, lines
+                    left_out[f"{kind} {geometry.get('type')}"] += 1
+            if with_surfaces:
+                top = max(_lod(g) for g in with_surfaces)
+                chosen[role].extend((*own, g) for g in with_surfaces if _lod(g) == top)
+        first_vertex += own[1]
+    vertices = np.concatenate(vertices)
+    if len(vertices) == 0:
+        raise UrbanvoxError(f"{path}: no vertices; the file holds no geometry.")
     if not chosen["building"] and not chosen["terrain"]:
         raise UrbanvoxError(f"{path} has no building or terrain surfaces (Building, BuildingPart, "
                             "BuildingInstallation or TINRelief objects with MultiSurface, CompositeSurface or "
@@ -158,7 +165,7 @@ def read_cityjson(path: "str | os.PathLike[str]",
     _check_cancel(is_cancelled)
     buildings, terrain = (_triangles(vertices, chosen[role], path, is_cancelled) if chosen[role] else None
                           for role in ("building", "terrain"))
-    crs = _reference_system(data.get("metadata") or {}, path, warnings)
+    crs = _reference_system(header.get("metadata") or {}, path, warnings)
     for part in (buildings, terrain):
         warnings += part.warnings if part is not None else []
     return CityModel(buildings=buildings, terrain=terrain, crs=crs, warnings=warnings)
@@ -169,15 +176,46 @@ def _check_cancel(is_cancelled: Optional[Callable[[], bool]]) -> None:
         raise Cancelled()
 
 
-def _vertices(data: dict, path: str) -> np.ndarray:
-    """The file's vertices in world coordinates (its ``transform`` applied)."""
+def _documents(path: str) -> tuple[dict, list]:
+    """The file's header (its CityJSON object) and the documents holding its city objects: the
+    header itself, or in a CityJSON Sequence (``.jsonl``: a CityJSON line, then a
+    CityJSONFeature per line, each with vertices of its own) the features."""
+    sequence = path.lower().endswith(".jsonl")
     try:
-        vertices = np.asarray(data.get("vertices") or np.empty((0, 3)), dtype=np.float64)
+        with open(path, "rb") as file:
+            if sequence:  # a line per building: a loop per object, not per face
+                lines = [json.loads(line) for line in file if line.strip()]
+            else:
+                lines = [json.load(file)]
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise UrbanvoxError(f"{path} is not a JSON file ({exc}); give a CityJSON file (.json, .city.json) "
+                            "or a CityJSON Sequence (.jsonl).") from exc
+    header = lines[0] if lines else None
+    if not isinstance(header, dict) or header.get("type") != "CityJSON" or not isinstance(
+            header.get("CityObjects"), dict):
+        raise UrbanvoxError(f"{path} is JSON but not CityJSON (no \"type\": \"CityJSON\" with CityObjects"
+                            f"{' on its first line' if sequence else ''}); GeoJSON is not read.")
+    if not sequence:
+        return header, [header]
+    features = lines[1:]
+    wrong = [n + 2 for n, f in enumerate(features)
+             if not isinstance(f, dict) or f.get("type") != "CityJSONFeature" or not isinstance(
+                 f.get("CityObjects"), dict)]
+    if wrong:
+        raise UrbanvoxError(f"{path}: line {wrong[0]} is not a CityJSONFeature with CityObjects "
+                            f"({len(wrong)} such lines); the file is damaged.")
+    return header, features
+
+
+def _vertices(document: dict, header: dict, path: str) -> np.ndarray:
+    """A document's vertices in world coordinates (the header's ``transform`` applied)."""
+    try:
+        vertices = np.asarray(document.get("vertices") or np.empty((0, 3)), dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise UrbanvoxError(f"{path}: the vertices are not a list of [x, y, z] numbers ({exc}).") from exc
-    if vertices.ndim != 2 or vertices.shape[1] != 3 or len(vertices) == 0:
-        raise UrbanvoxError(f"{path}: no vertices, or vertices that are not [x, y, z]; the file holds no geometry.")
-    transform = data.get("transform")
+    if vertices.ndim != 2 or vertices.shape[1] != 3:
+        raise UrbanvoxError(f"{path}: vertices that are not [x, y, z]; the file is damaged.")
+    transform = header.get("transform")
     if transform:
         vertices = vertices * np.asarray(transform.get("scale", (1, 1, 1)), dtype=np.float64) \
             + np.asarray(transform.get("translate", (0, 0, 0)), dtype=np.float64)
@@ -194,14 +232,18 @@ def _lod(geometry: dict) -> tuple:
 
 def _triangles(vertices: np.ndarray, geometries: list, path: str,
                is_cancelled: Optional[Callable[[], bool]]) -> Triangles:
-    """The geometries' polygons as cleaned triangles of ``vertices``."""
+    """The polygons of ``geometries`` (each with its document's first vertex and number of
+    vertices) as cleaned triangles of ``vertices``."""
     surfaces: list = []
+    surface_counts = np.empty(len(geometries), dtype=np.int64)
+    first_vertex, document_size = np.array([(first, size) for first, size, _ in geometries], dtype=np.int64).T
     try:
-        for geometry in geometries:
+        for n, (_, _, geometry) in enumerate(geometries):
             boundaries = geometry["boundaries"]
             for _ in range(SURFACE_LEVELS[geometry["type"]]):
                 boundaries = list(chain.from_iterable(boundaries))
             surfaces.extend(boundaries)
+            surface_counts[n] = len(boundaries)
         # The nesting flattened in C (chain, map): no Python loop per polygon or vertex.
         rings = list(chain.from_iterable(surfaces))
         ring_counts = np.fromiter(map(len, surfaces), dtype=np.int64, count=len(surfaces))
@@ -209,9 +251,13 @@ def _triangles(vertices: np.ndarray, geometries: list, path: str,
         index = np.fromiter(chain.from_iterable(rings), dtype=np.int64, count=int(ring_sizes.sum()))
     except (TypeError, ValueError) as exc:
         raise UrbanvoxError(f"{path}: a surface's boundary is not nested as its geometry type says ({exc}).") from exc
-    if len(index) and (index.min() < 0 or index.max() >= len(vertices)):
-        raise UrbanvoxError(f"{path}: a boundary refers to vertex {int(index.max())}, but the file has "
-                            f"{len(vertices)} vertices; the file is damaged.")
+    # Each document numbers its own vertices (a sequence's features): from its first in all.
+    of_geometry = np.repeat(np.repeat(np.repeat(np.arange(len(geometries)), surface_counts), ring_counts), ring_sizes)
+    outside = np.flatnonzero((index < 0) | (index >= document_size[of_geometry]))
+    if len(outside):
+        raise UrbanvoxError(f"{path}: a boundary refers to vertex {int(index[outside[0]])}, but its document has "
+                            f"{int(document_size[of_geometry[outside[0]]])} vertices; the file is damaged.")
+    index = index + first_vertex[of_geometry]
     _check_cancel(is_cancelled)
     all_vertices, faces = triangulate_polygons(vertices, index, ring_sizes, ring_counts)
     if len(faces) == 0:

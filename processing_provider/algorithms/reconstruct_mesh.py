@@ -6,7 +6,7 @@ from qgis.core import QgsProcessingParameterBoolean, QgsProcessingParameterFile
 from ..compat import FILE_BEHAVIOR, FLAG_ADVANCED
 from .base import BASE_MODULES, UrbanvoxAlgorithm
 
-MESH_FILTER = "Meshes and CityJSON (*.stl *.obj *.ply *.off *.json);;All files (*.*)"
+MESH_FILTER = "Meshes and CityJSON (*.stl *.obj *.ply *.off *.json *.jsonl);;All files (*.*)"
 
 
 class ReconstructFromMesh(UrbanvoxAlgorithm):
@@ -59,7 +59,7 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
 
     def requiredModules(self, parameters, context):  # noqa: N802
         files = [self.parameterAsFile(parameters, name, context) for name in (self.INPUT, self.GROUND)]
-        if all(not path or path.lower().endswith(".json") for path in files):
+        if all(not path or path.lower().endswith((".json", ".jsonl")) for path in files):
             return BASE_MODULES  # CityJSON: read with json and shapely
         return BASE_MODULES + ("trimesh",)
 
