@@ -402,7 +402,9 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
 
 def _tile_warnings(pieces: list[TilePiece]) -> list[str]:
     """The tiles' warnings, each kind once: counts of a tile include its halo,
-    so a warning several tiles give is reported with the number of tiles."""
+    so a warning several tiles give with different counts is reported with
+    the number of tiles; one they give word for word, as it is (a run of
+    clusters then says it once too)."""
     import re
 
     kinds: dict[str, list[str]] = {}
@@ -412,7 +414,7 @@ def _tile_warnings(pieces: list[TilePiece]) -> list[str]:
                 kinds.setdefault(re.sub(r"[\d.,]+", "#", text), []).append(text)
     out = []
     for texts in kinds.values():
-        if len(texts) == 1:
+        if len(set(texts)) == 1:
             out.append(texts[0])
         else:
             out.append(f"{texts[0].rstrip('.')} (said by {len(texts)} tiles, this is the first; "

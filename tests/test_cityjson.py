@@ -10,6 +10,7 @@ from core.pipeline import ReconstructionParams, reconstruct_mesh
 from core.polygons import newell_normals, triangulate_polygons
 from core.readers.cityjson import read_cityjson
 from core.readers.mesh import read_triangles
+from core.tiles import TileOptions
 from core.topology import signed_volume
 
 
@@ -352,6 +353,10 @@ def test_rotterdam_without_party_walls_is_hollow_unless_its_columns_are_filled(s
     hollow = reconstruct_mesh(path, crs="EPSG:28992", params=params)
     assert [w for w in hollow.warnings if w.startswith("Over 25% of the building columns have air under a roof")]
     assert float(hollow.measures.volume.sum()) < 0.3 * under_roofs
+    # Tiled, the same blocks, warned once (its two clusters and their tiles say it alike).
+    tiled = reconstruct_mesh(path, crs="EPSG:28992", params=params, tiles=TileOptions(tile_size=30.0))
+    assert tiled.blocks.volume.tolist() == hollow.blocks.volume.tolist()
+    assert len([w for w in tiled.warnings if "air under a roof" in w]) == 1
     filled = reconstruct_mesh(path, crs="EPSG:28992", params=params, fill_under_roofs=True)
     assert not [w for w in filled.warnings if "air under a roof" in w]
     assert float(filled.measures.volume.sum()) == pytest.approx(under_roofs, rel=0.03)
