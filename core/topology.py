@@ -136,6 +136,28 @@ def run_starts(values: np.ndarray) -> np.ndarray:
     return starts
 
 
+def sorted_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of a 2-D array in the order ``np.unique(rows, axis=0)`` sorts them (first
+    column first; equal rows in their order, a stable sort) and where each run of equal rows
+    starts in that order. From a lexsort of the columns: several times faster than unique's
+    sort of the rows as records (a city's vertices, 3 M rows: ~1 s less).
+
+    ``rows[order[starts]]`` are unique's rows, ``order[starts]`` its ``return_index``, and
+    ``np.cumsum(starts) - 1`` put back at ``order`` its ``return_inverse``.
+
+    Examples
+    --------
+    >>> order, starts = sorted_rows(np.array([[1, 2], [0, 5], [1, 2], [0, 3]]))
+    >>> order.tolist(), starts.tolist()
+    ([3, 1, 0, 2], [True, True, True, False])
+    """
+    order = np.lexsort(rows.T[::-1])
+    ordered = rows.take(order, axis=0)
+    starts = np.ones(len(rows), dtype=bool)
+    np.any(ordered[1:] != ordered[:-1], axis=1, out=starts[1:])
+    return order, starts
+
+
 def changed_rows(new: np.ndarray, old: np.ndarray) -> np.ndarray:
     """Rows of two (N, 3) position tables that differ: ``np.any(new != old, axis=1)``.
 

@@ -541,3 +541,24 @@ def test_rows_are_written_in_place_grown_past_the_count_and_trimmed():
     assert table.shape == (6, 3) and table.flags.owndata
     assert table[:, 0].tolist() == [0, 1, 2, 3, 5, 6]
     assert _Rows(10).result().shape == (0, 3)
+
+
+@pytest.mark.parametrize("kind", ["float", "int"])
+def test_sorted_rows_give_what_numpy_unique_gives(kind):
+    """The mesh reader merges vertices and finds repeated triangles with core.topology.sorted_rows
+    (a lexsort): the same unique rows, first occurrences and inverse as np.unique(axis=0)."""
+    from core.topology import sorted_rows
+
+    rng = np.random.default_rng(7)
+    if kind == "float":
+        rows = np.round(rng.normal(0, 3, (4000, 3)), 0) + 0.0  # many repeats, negatives, zeros
+    else:
+        rows = np.sort(rng.integers(0, 15, (4000, 3)), axis=1)
+    unique, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    order, starts = sorted_rows(rows)
+    assert np.array_equal(rows[order[starts]], unique)
+    assert np.array_equal(order[starts], first)
+    mine = np.empty(len(rows), dtype=np.int64)
+    mine[order] = np.cumsum(starts) - 1
+    assert np.array_equal(mine, inverse.reshape(-1))
+    assert len(unique) < len(rows)

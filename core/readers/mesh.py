@@ -33,7 +33,7 @@ from scipy.ndimage import minimum_filter
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import Cancelled, UrbanvoxError
-from ..topology import run_starts
+from ..topology import run_starts, sorted_rows
 from ..vectors import finite_rows
 
 __all__ = ["MESH_SUFFIXES", "Triangles", "read_triangles", "clean_triangles", "base_points", "edge_counts"]
@@ -197,11 +197,12 @@ def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
 
     # Exact merge: "+ 0.0" turns -0.0 into 0.0 so both compare equal row-wise.
     used = np.unique(faces)
-    unique_xyz, inverse = np.unique(vertices[used] + 0.0, axis=0, return_inverse=True)
+    xyz = vertices[used] + 0.0
+    order, starts = sorted_rows(xyz)  # np.unique(xyz, axis=0, return_inverse=True), faster
     remap = np.zeros(len(vertices), dtype=np.int64)
-    remap[used] = inverse.reshape(-1)
+    remap[used[order]] = np.cumsum(starts) - 1
     faces = remap[faces]
-    vertices = unique_xyz
+    vertices = xyz[order[starts]]
     _check_cancel(is_cancelled)
 
     # Degenerate: repeated corner, or area negligible against the longest edge
@@ -218,7 +219,8 @@ def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
 
     # Duplicated triangles (same three vertices) would only double the samples.
     if len(faces):
-        _, first = np.unique(np.sort(faces, axis=1), axis=0, return_index=True)
+        order, starts = sorted_rows(np.sort(faces, axis=1))
+        first = order[starts]  # each triangle's first occurrence
         if len(first) < len(faces):
             warnings.append(f"removed {len(faces) - len(first)} duplicated triangles.")
             faces = faces[np.sort(first)]
