@@ -375,6 +375,12 @@ def base_points(tris: Triangles, voxel_size: float, unit: float = 1.0) -> np.nda
     keep[index[_not_floating(vertices[index], unit)]] = True
 
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    edges = np.unique(edges[keep[edges].all(axis=1)], axis=0)
+    edges = _unique_rows(edges[keep[edges].all(axis=1)])
     extra = _densify_edges(vertices, edges, voxel_size / 2.0)
-    return np.unique(np.vstack([vertices[keep], extra]), axis=0)
+    return _unique_rows(np.vstack([vertices[keep], extra]))
+
+
+def _unique_rows(rows: np.ndarray) -> np.ndarray:
+    """``np.unique(rows, axis=0)``, faster (:func:`core.topology.sorted_rows`)."""
+    order, starts = sorted_rows(rows)
+    return rows.take(order[starts], axis=0)
