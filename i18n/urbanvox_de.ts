@@ -220,12 +220,24 @@
       <translation>&lt;p&gt;Die Daten werden in ein Gitter würfelförmiger Voxel gelegt; die Voxel werden in Boden, Gebäude und Luft eingeteilt (die Luft wird von oben geflutet, so werden geschlossene Innenhöfe und innere Flächen behandelt); über Flächen verbundene Gebäudevoxel bilden einen Block. Blöcke unter den Schwellenwerten werden verworfen.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Voxelgröße&lt;/b&gt;: Kante eines Voxels in Metern; eine Halbierung vervielfacht Speicher und Zeit um ~8.&lt;br&gt;&lt;b&gt;Minimale Höhe / Grundfläche / Volumen&lt;/b&gt;: Blöcke unter einem davon werden verworfen.&lt;br&gt;&lt;b&gt;Glättungsdurchgänge&lt;/b&gt;: Catmull-Clark nur über die Knoten (Artikel: 3); Knoten am Fuß der Wände behalten ihre Höhe. &lt;b&gt;Projizieren&lt;/b&gt;: die geglätteten Knoten auf gleitende Kleinste-Quadrate-Ebenen der Daten verschieben. &lt;b&gt;Minimale Flächenqualität&lt;/b&gt;: ein Schritt, der eine schlechtere Fläche hinterließe, wird abgelehnt (eine Voxelfläche hat 0,72).&lt;br&gt;&lt;b&gt;Gebietsausdehnung&lt;/b&gt;: schneidet die Daten zu; Blöcke über den Rand werden an seinen Seiten geschlossen.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Blöcke&lt;/b&gt;: ein MultiPolygonZ je Block, seine geschlossene Außenfläche (geglättet und projiziert). &lt;b&gt;Grundrisse&lt;/b&gt;: ein Polygon je Block (die Spalten, die er bedeckt). Beide haben die Felder block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) und n_voxels des Voxelmodells, dann mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist und max_dist (m, Knoten zu den Daten) des endgültigen Netzes. &lt;b&gt;Geländeoberfläche&lt;/b&gt;: das Gelände, in Kacheln. &lt;b&gt;Netzdatei&lt;/b&gt;: geschlossene, konforme Oberflächen jedes Blocks, des Bodens und der Luft; die Endung wählt das Format (.msh mit physikalischen Gruppen je Grenzfläche und je Region, .vtu, .obj, .stl, .ply); daneben wird ein PNG-Vorschaubild geschrieben.&lt;/p&gt;</translation>
     </message>
     <message>
+      <source>voxel,building,block,urban,city,3d,finite element,cfd,mesh,gmsh,catmull-clark</source>
+      <translation>voxel,gebäude,block,städtisch,stadt,3d,finite elemente,cfd,netz,gmsh,catmull-clark</translation>
+    </message>
+    <message>
+      <source>cityjson,citygml,city model,lod2,stl,obj,ply,3d bag</source>
+      <translation>cityjson,citygml,stadtmodell,lod2,stl,obj,ply,3d bag</translation>
+    </message>
+    <message>
       <source>Reconstruct building blocks from point cloud</source>
       <translation>Gebäudeblöcke aus einer Punktwolke rekonstruieren</translation>
     </message>
     <message>
       <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud: one or several .las/.laz files (a tile collection, as LiDAR is delivered, is read as one cloud).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
       <translation>&lt;p&gt;Voxel-Gebäudeblöcke aus einer klassifizierten LiDAR-Punktwolke: eine oder mehrere .las/.laz-Dateien (eine Kachelsammlung, wie LiDAR geliefert wird, wird als eine Wolke gelesen).&lt;/p&gt;&lt;p&gt;&lt;b&gt;KBS&lt;/b&gt;: das Koordinatenbezugssystem der Punkte; standardmäßig das aus dem Dateikopf. Erforderlich, wenn der Kopf keines enthält (z. B. AHN3-Kacheln: EPSG:28992); es ersetzt das des Kopfes.&lt;br&gt;&lt;b&gt;Bodenklassen&lt;/b&gt; / &lt;b&gt;Gebäudeklassen&lt;/b&gt;: ASPRS-Klassifizierungscodes, durch Kommas getrennt (Boden 2, Gebäude 6 in Standard-LAS). Punkte anderer Klassen werden ignoriert.&lt;/p&gt;</translation>
+    </message>
+    <message>
+      <source>lidar,las,laz,point cloud,classification,ahn,lidar hd</source>
+      <translation>lidar,las,laz,punktwolke,klassifizierung,ahn,lidar hd</translation>
     </message>
     <message>
       <source>Writing the blocks and footprints</source>

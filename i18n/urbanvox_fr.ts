@@ -220,12 +220,24 @@
       <translation>&lt;p&gt;Les données sont placées dans une grille de voxels cubiques ; les voxels sont classés en sol, bâtiment et air (l'air est propagé depuis le haut, ce qui traite les cours fermées et les surfaces intérieures) ; les voxels de bâtiment reliés par une face forment un îlot. Les îlots plus bas, plus petits ou plus légers que les seuils sont supprimés.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Taille des voxels&lt;/b&gt; : arête d'un voxel en mètres ; la diviser par deux multiplie mémoire et temps par ~8.&lt;br&gt;&lt;b&gt;Hauteur / emprise / volume minimaux&lt;/b&gt; : les îlots en dessous de l'un d'eux sont écartés.&lt;br&gt;&lt;b&gt;Passes de lissage&lt;/b&gt; : passes de Catmull-Clark sur les sommets seulement (article : 3) ; les nœuds au pied des murs gardent leur altitude. &lt;b&gt;Projeter&lt;/b&gt; : déplacer les nœuds lissés sur des plans des moindres carrés mobiles des données. &lt;b&gt;Qualité minimale des faces&lt;/b&gt; : un déplacement qui laisserait une face moins bonne est refusé (une face de voxel vaut 0,72).&lt;br&gt;&lt;b&gt;Emprise du domaine&lt;/b&gt; : découpe les données ; les îlots qui la franchissent sont fermés sur ses côtés.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Îlots&lt;/b&gt; : un MultiPolygonZ par îlot, sa surface extérieure fermée (lissée et projetée). &lt;b&gt;Emprises&lt;/b&gt; : un polygone par îlot (les colonnes qu'il couvre). Les deux ont les champs block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) et n_voxels du modèle voxel, puis mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist et max_dist (m, des nœuds aux données) du maillage final. &lt;b&gt;Surface du sol&lt;/b&gt; : le terrain, par tuiles. &lt;b&gt;Fichier de maillage&lt;/b&gt; : surfaces fermées et conformes de chaque îlot, du sol et de l'air ; l'extension choisit le format (.msh avec groupes physiques par interface et par région, .vtu, .obj, .stl, .ply) ; un aperçu PNG est écrit à côté.&lt;/p&gt;</translation>
     </message>
     <message>
+      <source>voxel,building,block,urban,city,3d,finite element,cfd,mesh,gmsh,catmull-clark</source>
+      <translation>voxel,bâtiment,îlot,urbain,ville,3d,éléments finis,cfd,maillage,gmsh,catmull-clark</translation>
+    </message>
+    <message>
+      <source>cityjson,citygml,city model,lod2,stl,obj,ply,3d bag</source>
+      <translation>cityjson,citygml,maquette urbaine,lod2,stl,obj,ply,3d bag</translation>
+    </message>
+    <message>
       <source>Reconstruct building blocks from point cloud</source>
       <translation>Reconstruire les îlots bâtis à partir d'un nuage de points</translation>
     </message>
     <message>
       <source>&lt;p&gt;Voxel building blocks from a classified LiDAR point cloud: one or several .las/.laz files (a tile collection, as LiDAR is delivered, is read as one cloud).&lt;/p&gt;&lt;p&gt;&lt;b&gt;CRS&lt;/b&gt;: the coordinate reference system of the points; by default the one in the file header. Required when the header has none (e.g. AHN3 tiles: EPSG:28992); it overrides the header.&lt;br&gt;&lt;b&gt;Ground classes&lt;/b&gt; / &lt;b&gt;Building classes&lt;/b&gt;: ASPRS classification codes, comma-separated (ground 2, building 6 in standard LAS). Points of other classes are ignored.&lt;/p&gt;</source>
       <translation>&lt;p&gt;Îlots bâtis voxelisés à partir d'un nuage de points LiDAR classifié : un ou plusieurs fichiers .las/.laz (une collection de dalles, telle que le LiDAR est livré, est lue comme un seul nuage).&lt;/p&gt;&lt;p&gt;&lt;b&gt;SCR&lt;/b&gt; : le système de coordonnées des points ; par défaut celui de l'en-tête du fichier. Obligatoire quand l'en-tête n'en a pas (par ex. dalles AHN3 : EPSG:28992) ; il remplace celui de l'en-tête.&lt;br&gt;&lt;b&gt;Classes du sol&lt;/b&gt; / &lt;b&gt;Classes des bâtiments&lt;/b&gt; : codes de classification ASPRS, séparés par des virgules (sol 2, bâtiment 6 en LAS standard). Les points des autres classes sont ignorés.&lt;/p&gt;</translation>
+    </message>
+    <message>
+      <source>lidar,las,laz,point cloud,classification,ahn,lidar hd</source>
+      <translation>lidar,las,laz,nuage de points,classification,ahn,lidar hd</translation>
     </message>
     <message>
       <source>Writing the blocks and footprints</source>

@@ -45,6 +45,7 @@ def collect() -> list[str]:
         algorithm = algorithm.create()
         algorithm.displayName()
         algorithm.shortHelpString()
+        algorithm.tags()
     return seen
 
 

@@ -194,6 +194,15 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
     def group(self):
         return ""
 
+    #: Words the toolbox's search finds the algorithm by, besides its name (comma-separated,
+    #: translated): the method's, and those of the algorithm's input.
+    TAGS = "voxel,building,block,urban,city,3d,finite element,cfd,mesh,gmsh,catmull-clark"
+    INPUT_TAGS = ""
+
+    def tags(self):
+        words = ",".join(self.tr(text) for text in (self.TAGS, self.INPUT_TAGS) if text)
+        return [word.strip() for word in words.split(",")]
+
     def groupId(self):  # noqa: N802 (QGIS API name)
         return ""
 

@@ -12,6 +12,7 @@ MESH_FILTER = "Meshes and CityJSON (*.stl *.obj *.ply *.off *.json *.jsonl);;All
 class ReconstructFromMesh(UrbanvoxAlgorithm):
     GROUND = "GROUND"
     FILL_UNDER_ROOFS = "FILL_UNDER_ROOFS"
+    INPUT_TAGS = "cityjson,citygml,city model,lod2,stl,obj,ply,3d bag"
 
     def name(self):
         return "reconstructfrommesh"

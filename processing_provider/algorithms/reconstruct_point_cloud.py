@@ -9,6 +9,7 @@ from .base import BASE_MODULES, UrbanvoxAlgorithm
 class ReconstructFromPointCloud(UrbanvoxAlgorithm):
     GROUND_CLASSES = "GROUND_CLASSES"
     BUILDING_CLASSES = "BUILDING_CLASSES"
+    INPUT_TAGS = "lidar,las,laz,point cloud,classification,ahn,lidar hd"
 
     def name(self):
         return "reconstructfrompointcloud"

@@ -100,6 +100,13 @@ def test_point_cloud_parameters(urbanvox_plugin):
     assert alg.parameterDefinition("BUILDING_CLASSES").defaultValue() == "6"
 
 
+def test_the_toolbox_search_finds_the_algorithms_by_their_inputs(urbanvox_plugin):
+    mesh, cloud = algorithm("urbanvox:reconstructfrommesh"), algorithm("urbanvox:reconstructfrompointcloud")
+    assert {"cityjson", "citygml", "stl", "voxel", "cfd"} <= set(mesh.tags())
+    assert {"lidar", "laz", "point cloud", "voxel", "finite element"} <= set(cloud.tags())
+    assert "lidar" not in mesh.tags() and "cityjson" not in cloud.tags() and "" not in mesh.tags()
+
+
 def test_mesh_parameters(urbanvox_plugin):
     from qgis.core import QgsProcessingParameterDefinition
 
