@@ -38,6 +38,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ground-classes", default="2", help="LAS ground class codes (default 2)")
     p.add_argument("--building-classes", default="6", help="LAS building class codes (default 6)")
     p.add_argument("--ground-mesh", type=Path, help="terrain mesh (or CityJSON terrain) for a mesh input")
+    p.add_argument("--lod", help="CityJSON input: the level of detail to take where an object has it "
+                                 "(e.g. 1.2; default: each object's highest)")
     p.add_argument("--fill-under-roofs", action="store_true",
                    help="mesh input: every column solid up to its roof (for models with missing walls)")
     p.add_argument("--extent", type=float, nargs=4, metavar=("XMIN", "YMIN", "XMAX", "YMAX"),
@@ -83,8 +85,8 @@ def main(argv: list[str] | None = None) -> int:
             if not args.crs and not is_cityjson(args.inputs[0]):
                 raise UrbanvoxError("A mesh carries no CRS: give it with --crs (e.g. --crs EPSG:2056).")
             result = reconstruct_mesh(args.inputs[0], crs=args.crs, ground_path=args.ground_mesh,
-                                      params=params, fill_under_roofs=args.fill_under_roofs, tiles=tiles,
-                                      progress=progress)
+                                      params=params, fill_under_roofs=args.fill_under_roofs, lod=args.lod,
+                                      tiles=tiles, progress=progress)
         else:
             raise UrbanvoxError("Give LAS/LAZ files, or a single building mesh.")
         if args.mesh:

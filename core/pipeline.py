@@ -151,6 +151,7 @@ def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: st
 @reusing_freed_memory()
 def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: str | Path | None = None,
                      params: ReconstructionParams | None = None, fill_under_roofs: bool = False,
+                     lod: str | None = None,
                      tiles: TileOptions | None = None,
                      progress: Progress | None = None,
                      is_cancelled: CancelCheck | None = None) -> Reconstruction:
@@ -163,6 +164,10 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     one, else it passes through the bottom of every building part
     (:func:`core.readers.mesh.base_points`). ``crs`` is needed unless the
     file names one (CityJSON's ``referenceSystem``; a mesh never does).
+
+    ``lod`` picks a CityJSON file's level of detail where an object has it
+    (:func:`core.readers.cityjson.read_cityjson`); the others give their
+    highest.
 
     ``fill_under_roofs`` makes every column solid from the ground up to its
     highest building point, as for airborne LiDAR: for models whose walls are
@@ -178,7 +183,7 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     report = _reporter(progress, is_cancelled)
     report(0.0, "Reading mesh")
     if is_cityjson(path):
-        city = read_cityjson(path, is_cancelled)
+        city = read_cityjson(path, is_cancelled, lod)
         crs_obj = resolve_crs(city.crs, crs, str(path))
         if city.buildings is None:
             raise UrbanvoxError(f"{path} has terrain but no building surfaces (Building, BuildingPart or "
@@ -191,6 +196,9 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
         crs_obj = resolve_crs(None, crs, str(path))
         triangles = read_triangles(str(path), is_cancelled)
         ground_triangles, warnings = None, list(triangles.warnings)
+        if lod:
+            warnings.append(f"A level of detail ({lod}) is for CityJSON input; {os.path.basename(str(path))} "
+                            "is a mesh, read whole.")
     if ground_path:
         ground_triangles = _ground_triangles(ground_path, is_cancelled)
     unit = metres_per_unit(crs_obj)

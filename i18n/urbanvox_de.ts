@@ -200,8 +200,16 @@
       <translation>Jede Säule bis zu ihrem Dach füllen</translation>
     </message>
     <message>
+      <source>CityJSON level of detail (default: the highest)</source>
+      <translation>CityJSON-Detaillierungsgrad (Standard: der höchste)</translation>
+    </message>
+    <message>
       <source>Optional terrain mesh, or a CityJSON file's terrain (TINRelief); without it the ground is a CityJSON input's own terrain, else it passes through the bottom of every building part.</source>
       <translation>Optionales Geländenetz oder das Gelände (TINRelief) einer CityJSON-Datei; ohne es ist der Boden das Gelände der CityJSON-Eingabe, sonst verläuft er durch die Unterkante jedes Gebäudeteils.</translation>
+    </message>
+    <message>
+      <source>The level of detail a CityJSON file's buildings are taken at where they have it, as the file writes it (3D BAG: 1.2, 1.3 or 2.2); a coarser one makes a simpler mesh. Default: each building's highest.</source>
+      <translation>Der Detaillierungsgrad, in dem die Gebäude einer CityJSON-Datei genommen werden, wo sie ihn haben, so geschrieben wie in der Datei (3D BAG: 1.2, 1.3 oder 2.2); ein gröberer ergibt ein einfacheres Netz. Standard: der höchste jedes Gebäudes.</translation>
     </message>
     <message>
       <source>Make every column solid from the ground up to its roof, as for airborne LiDAR: for city models whose walls are missing (the air would get in and leave the blocks hollow; the run warns of it). Passages and overhangs are filled too.</source>

@@ -200,8 +200,16 @@
       <translation>Remplir chaque colonne jusqu'à son toit</translation>
     </message>
     <message>
+      <source>CityJSON level of detail (default: the highest)</source>
+      <translation>Niveau de détail CityJSON (par défaut : le plus élevé)</translation>
+    </message>
+    <message>
       <source>Optional terrain mesh, or a CityJSON file's terrain (TINRelief); without it the ground is a CityJSON input's own terrain, else it passes through the bottom of every building part.</source>
       <translation>Maillage du terrain, ou terrain (TINRelief) d'un fichier CityJSON, facultatif ; sans lui, le sol est le terrain de l'entrée CityJSON, sinon il passe par le bas de chaque partie de bâtiment.</translation>
+    </message>
+    <message>
+      <source>The level of detail a CityJSON file's buildings are taken at where they have it, as the file writes it (3D BAG: 1.2, 1.3 or 2.2); a coarser one makes a simpler mesh. Default: each building's highest.</source>
+      <translation>Le niveau de détail auquel les bâtiments d'un fichier CityJSON sont pris quand ils l'ont, écrit comme dans le fichier (3D BAG : 1.2, 1.3 ou 2.2) ; un niveau plus grossier donne un maillage plus simple. Par défaut : le plus élevé de chaque bâtiment.</translation>
     </message>
     <message>
       <source>Make every column solid from the ground up to its roof, as for airborne LiDAR: for city models whose walls are missing (the air would get in and leave the blocks hollow; the run warns of it). Passages and overhangs are filled too.</source>

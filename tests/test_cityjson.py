@@ -166,6 +166,15 @@ def test_objects_are_chosen_by_type_and_highest_lod(tmp_path):
     assert buildings.vertices[:, 0].max() == 30
     assert any("1 Road" in w and "1 Building GeometryInstance" in w for w in city.warnings)
     assert _areas(city.terrain.vertices, city.terrain.faces).sum() == pytest.approx(55 * 25)
+    # LoD 1 where an object has it (p1: its first box, which b2's LoD 2 box repeats, so one box
+    # is left once the repeated triangles are dropped), the highest elsewhere (written 2 or 2.0).
+    coarse = read_cityjson(path, lod="1").buildings
+    assert coarse.vertices[:, 0].max() == 10
+    assert signed_volume(coarse.vertices, coarse.faces) == pytest.approx(10 * 10 * 6)
+    assert read_cityjson(path, lod="2.0").buildings.faces.shape == buildings.faces.shape
+    assert any("no object has LoD 3" in w for w in read_cityjson(path, lod="3").warnings)
+    with pytest.raises(UrbanvoxError, match="'LoD2' is not a level of detail"):
+        read_cityjson(path, lod="LoD2")
 
 
 def test_the_transform_is_applied_and_a_file_without_crs_needs_the_parameter(tmp_path):

@@ -8,7 +8,9 @@ method was made for. So the polygons are triangulated and handed to the mesh
 method like any building mesh (:func:`core.readers.mesh.clean_triangles`).
 
 - Buildings: the objects of type ``Building``, ``BuildingPart`` and
-  ``BuildingInstallation``, each with its geometries of the highest LoD it has.
+  ``BuildingInstallation``, each with its geometries of the highest LoD it has,
+  or of the LoD asked for where it has that one (3D BAG has 1.2, 1.3 and 2.2:
+  a simpler model for a coarser mesh).
 - Terrain: the ``TINRelief`` objects, if there are any: the ground when no
   ground mesh is given.
 - CRS: ``metadata.referenceSystem`` (an OGC URL or URN such as
@@ -46,6 +48,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from collections import Counter
 from dataclasses import dataclass, field
 from itertools import chain
@@ -101,8 +104,8 @@ def is_cityjson(path: "str | os.PathLike[str]") -> bool:
     return os.fspath(path).lower().endswith((".json", ".jsonl"))
 
 
-def read_cityjson(path: "str | os.PathLike[str]",
-                  is_cancelled: Optional[Callable[[], bool]] = None) -> CityModel:
+def read_cityjson(path: "str | os.PathLike[str]", is_cancelled: Optional[Callable[[], bool]] = None,
+                  lod: "str | None" = None) -> CityModel:
     """Read a CityJSON file's buildings, terrain and CRS (see the module doc).
 
     Parameters
@@ -111,6 +114,9 @@ def read_cityjson(path: "str | os.PathLike[str]",
         A CityJSON file (version 1.0 to 2.0) or a CityJSON Sequence (``.jsonl``).
     is_cancelled : callable, optional
         Zero-argument callable; True raises :class:`~core.errors.Cancelled`.
+    lod : str, optional
+        The level of detail to take ("1.2", "2"...) from the objects that
+        have it; the others, and all objects by default, give their highest.
 
     Returns
     -------
@@ -127,6 +133,10 @@ def read_cityjson(path: "str | os.PathLike[str]",
         raise UrbanvoxError(f"CityJSON file {path} does not exist; check the path.")
     header, documents = _documents(path)
     _check_cancel(is_cancelled)
+    if lod and not re.fullmatch(r"\d+(\.\d+)?", str(lod).strip()):
+        raise UrbanvoxError(f"The LoD {lod!r} is not a level of detail: write it as CityJSON does, e.g. 1.2 or 2.")
+    wanted = _lod({"lod": lod}) if lod else None
+    with_wanted = 0
     warnings: list = []
     # The geometries chosen, each with its document's first vertex and number of vertices.
     chosen: dict = {"building": [], "terrain": []}
@@ -148,8 +158,10 @@ def read_cityjson(path: "str | os.PathLike[str]",
                 if geometry.get("type") not in SURFACE_LEVELS:  # templates, points, lines
                     left_out[f"{kind} {geometry.get('type')}"] += 1
             if with_surfaces:
-                top = max(_lod(g) for g in with_surfaces)
-                chosen[role].extend((*own, g) for g in with_surfaces if _lod(g) == top)
+                levels = [_lod(g) for g in with_surfaces]
+                level = wanted if wanted in levels else max(levels)
+                with_wanted += level == wanted
+                chosen[role].extend((*own, g) for g, at in zip(with_surfaces, levels) if at == level)
         first_vertex += own[1]
     vertices = np.concatenate(vertices)
     if len(vertices) == 0:
@@ -158,6 +170,8 @@ def read_cityjson(path: "str | os.PathLike[str]",
         raise UrbanvoxError(f"{path} has no building or terrain surfaces (Building, BuildingPart, "
                             "BuildingInstallation or TINRelief objects with MultiSurface, CompositeSurface or "
                             "Solid geometries).")
+    if wanted is not None and with_wanted == 0:
+        warnings.append(f"{os.path.basename(path)}: no object has LoD {lod}; each gives its highest.")
     if +left_out:
         listed = ", ".join(f"{n} {kind}" for kind, n in sorted((+left_out).items()))
         warnings.append(f"{os.path.basename(path)}: left out geometries that are not building or terrain "
@@ -223,9 +237,12 @@ def _vertices(document: dict, header: dict, path: str) -> np.ndarray:
 
 
 def _lod(geometry: dict) -> tuple:
-    """A geometry's level of detail as a comparable tuple: "2.2" -> (2, 2), 1 -> (1,)."""
+    """A geometry's level of detail as a comparable tuple: "2.2" -> (2, 2), 1 -> (1,), "2.0" -> (2,)."""
     try:
-        return tuple(int(part) for part in str(geometry.get("lod", 0)).split("."))
+        parts = [int(part) for part in str(geometry.get("lod", 0)).strip().split(".")]
+        while len(parts) > 1 and parts[-1] == 0:
+            parts.pop()
+        return tuple(parts)
     except ValueError:
         return (0,)
 

@@ -296,6 +296,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                             "vegetation, noise and other codes are ignored.",
         "GROUND": "Optional terrain mesh, or a CityJSON file's terrain (TINRelief); without it the ground is a "
                   "CityJSON input's own terrain, else it passes through the bottom of every building part.",
+        "LOD": "The level of detail a CityJSON file's buildings are taken at where they have it, as the file "
+               "writes it (3D BAG: 1.2, 1.3 or 2.2); a coarser one makes a simpler mesh. Default: each "
+               "building's highest.",
         "FILL_UNDER_ROOFS": "Make every column solid from the ground up to its roof, as for airborne LiDAR: for "
                             "city models whose walls are missing (the air would get in and leave the blocks "
                             "hollow; the run warns of it). Passages and overhangs are filled too.",

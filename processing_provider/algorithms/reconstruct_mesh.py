@@ -1,7 +1,7 @@
 """``urbanvox:reconstructfrommesh``: building blocks from a triangle mesh (CityGML-derived STL, OBJ, PLY, OFF)
 or a CityJSON city model."""
 
-from qgis.core import QgsProcessingParameterBoolean, QgsProcessingParameterFile
+from qgis.core import QgsProcessingParameterBoolean, QgsProcessingParameterFile, QgsProcessingParameterString
 
 from ..compat import FILE_BEHAVIOR, FLAG_ADVANCED
 from .base import BASE_MODULES, UrbanvoxAlgorithm
@@ -12,6 +12,7 @@ MESH_FILTER = "Meshes and CityJSON (*.stl *.obj *.ply *.off *.json *.jsonl);;All
 class ReconstructFromMesh(UrbanvoxAlgorithm):
     GROUND = "GROUND"
     FILL_UNDER_ROOFS = "FILL_UNDER_ROOFS"
+    LOD = "LOD"
     INPUT_TAGS = "cityjson,citygml,city model,lod2,stl,obj,ply,3d bag"
 
     def name(self):
@@ -55,8 +56,11 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
         self.addCrsParameter("CRS of the coordinates (required for STL/OBJ/PLY/OFF)", optional=True)
         fill = QgsProcessingParameterBoolean(self.FILL_UNDER_ROOFS, self.tr("Fill every column up to its roof"),
                                              defaultValue=False)
-        fill.setFlags(fill.flags() | FLAG_ADVANCED)
-        self.addParameter(fill)
+        lod = QgsProcessingParameterString(self.LOD, self.tr("CityJSON level of detail (default: the highest)"),
+                                           optional=True)
+        for parameter in (lod, fill):
+            parameter.setFlags(parameter.flags() | FLAG_ADVANCED)
+            self.addParameter(parameter)
 
     def requiredModules(self, parameters, context):  # noqa: N802
         files = [self.parameterAsFile(parameters, name, context) for name in (self.INPUT, self.GROUND)]
@@ -71,6 +75,7 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
             crs=self.crsArgument(parameters, context),
             params=params,
             fill_under_roofs=self.parameterAsBoolean(parameters, self.FILL_UNDER_ROOFS, context),
+            lod=self.parameterAsString(parameters, self.LOD, context).strip() or None,
             tiles=tiles,
             progress=progress,
             is_cancelled=is_cancelled,

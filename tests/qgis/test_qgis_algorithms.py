@@ -136,6 +136,37 @@ def test_mesh_on_the_synthetic_district(processing, district, tmp_path):
     check_against_truth(footprints, district, volume_tolerance=0.15)
 
 
+def test_a_cityjson_building_at_the_level_of_detail_asked_for(processing, tmp_path):
+    """A CityJSON building with a LoD 1.2 block 6 m high and a LoD 2.2 one 9 m high, its CRS in
+    the file: the highest by default, LOD=1.2 when asked."""
+    import json
+
+    def box(height, first):
+        corners = [[0, 0, 0], [20, 0, 0], [20, 12, 0], [0, 12, 0]]
+        vertices = corners + [[x, y, height] for x, y, _ in corners]
+        faces = [[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]
+        return vertices, [[[[first + i for i in face]] for face in faces]]  # a Solid: one shell of faces
+
+    low, low_faces = box(6.0, 0)
+    high, high_faces = box(9.0, 8)
+    model = {"type": "CityJSON", "version": "2.0", "vertices": [[x + 2.6e6, y + 1.2e6, z] for x, y, z in low + high],
+             "metadata": {"referenceSystem": "https://www.opengis.net/def/crs/EPSG/0/2056"},
+             "CityObjects": {"b": {"type": "Building", "geometry": [
+                 {"type": "Solid", "lod": "1.2", "boundaries": low_faces},
+                 {"type": "Solid", "lod": "2.2", "boundaries": high_faces}]}}}
+    path = tmp_path / "two_lods.city.json"
+    path.write_text(json.dumps(model))
+    heights = {}
+    for lod in ("", "1.2"):
+        gpkg = tmp_path / f"lod{lod.replace('.', '_')}.gpkg"
+        results = processing.run("urbanvox:reconstructfrommesh",
+                                 {"INPUT": str(path), "LOD": lod, "VOXEL_SIZE": 1.0, **gpkg_outputs(gpkg)})
+        assert results["BLOCK_COUNT"] == 1
+        _, blocks = read_layer(gpkg, "blocks")
+        heights[lod] = blocks[0]["height"]
+    assert heights == {"": 9.0, "1.2": 6.0}
+
+
 def test_a_mesh_without_crs_is_refused_before_anything_is_written(processing, district, tmp_path):
     from qgis.core import QgsProcessingException
 

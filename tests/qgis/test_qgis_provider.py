@@ -117,6 +117,8 @@ def test_mesh_parameters(urbanvox_plugin):
     assert alg.parameterDefinition("GROUND").flags() & optional
     # Optional: a CityJSON file names its own; an STL without it stops with a message (test_qgis_algorithms).
     assert alg.parameterDefinition("CRS").flags() & optional
+    lod = alg.parameterDefinition("LOD")
+    assert lod.flags() & optional and lod.flags() & QgsProcessingParameterDefinition.Flag.FlagAdvanced
     fill = alg.parameterDefinition("FILL_UNDER_ROOFS")
     assert fill.defaultValue() is False and fill.flags() & QgsProcessingParameterDefinition.Flag.FlagAdvanced
 
