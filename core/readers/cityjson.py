@@ -216,9 +216,10 @@ def _documents(path: str) -> tuple[dict, list]:
              if not isinstance(f, dict) or f.get("type") != "CityJSONFeature" or not isinstance(
                  f.get("CityObjects"), dict)]
     if wrong:
-        raise UrbanvoxError(f"{path}: line {wrong[0]} is not a CityJSONFeature with CityObjects "
-                            f"({len(wrong)} such lines); the file is damaged.")
-    return header, features
+        raise UrbanvoxError(f"{path}: line {wrong[0]} (not counting blank lines) is not a CityJSONFeature with "
+                            f"CityObjects ({len(wrong)} such lines); the file is damaged.")
+    # The header's own city objects, if it has any (a sequence's has none, normally).
+    return header, ([header] if header["CityObjects"] else []) + features
 
 
 def _vertices(document: dict, header: dict, path: str) -> np.ndarray:
