@@ -315,7 +315,7 @@ def test_a_cityjson_sequence_gives_the_model_of_its_file(shared_data, tmp_path):
     # A damaged line is named.
     text = sequence.read_text().splitlines()
     (tmp_path / "damaged.jsonl").write_text("\n".join(text[:2] + ['{"type": "Feature"}'] + text[3:]))
-    with pytest.raises(UrbanvoxError, match="line 3 is not a CityJSONFeature"):
+    with pytest.raises(UrbanvoxError, match=r"line 3 \(not counting blank lines\) is not a CityJSONFeature"):
         read_cityjson(tmp_path / "damaged.jsonl")
 
 
