@@ -222,6 +222,16 @@ def test_a_terrain_only_file_is_a_ground_not_an_input(tmp_path, district):
         ground.vertices.tolist())
     with pytest.raises(UrbanvoxError, match="has terrain but no building surfaces"):
         reconstruct_mesh(path, crs=district.crs)
+    # As the ground of the district's STL: the model of its ground STL.
+    params = ReconstructionParams(voxel_size=2.0, smoothing_iterations=0, project=False)
+    with_json = reconstruct_mesh(district.stl, crs=district.crs, ground_path=path, params=params)
+    with_stl = reconstruct_mesh(district.stl, crs=district.crs, ground_path=district.ground_stl, params=params)
+    assert len(with_json.blocks) == len(with_stl.blocks) > 40
+    assert np.array_equal(with_json.blocks.volume, with_stl.blocks.volume)
+    # A ground file without terrain is refused.
+    with pytest.raises(UrbanvoxError, match="has no terrain"):
+        reconstruct_mesh(district.stl, crs=district.crs, ground_path=_as_cityjson(tmp_path / "b.json",
+                                                                                   read_triangles(district.stl)))
 
 
 def _as_cityjson(path, triangles, ground=None):
