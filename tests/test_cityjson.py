@@ -193,6 +193,7 @@ def test_the_transform_is_applied_and_a_file_without_crs_needs_the_parameter(tmp
 
 
 @pytest.mark.parametrize("content, message", [
+    ("", r"bad.json is empty"),
     ("{not json", r"is not a JSON file"),
     ('{"type": "FeatureCollection", "features": []}', r"is JSON but not CityJSON"),
     ('{"type": "CityJSON", "CityObjects": {}, "vertices": []}', r"no vertices"),
@@ -213,6 +214,18 @@ def test_bad_files_get_a_clear_error(tmp_path, content, message):
         read_cityjson(path)
     with pytest.raises(UrbanvoxError, match="does not exist"):
         read_cityjson(tmp_path / "missing.json")
+
+
+def test_reading_honours_cancel(tmp_path):
+    from core.errors import Cancelled
+
+    vertices, faces = _box(0, 0, 10, 10, 6)
+    path = _write(tmp_path / "box.json", {"b": {"type": "Building", "geometry": [
+        {"type": "MultiSurface", "lod": "2", "boundaries": faces}]}}, vertices)
+    with pytest.raises(Cancelled):
+        read_cityjson(path, is_cancelled=lambda: True)
+    with pytest.raises(Cancelled):
+        reconstruct_mesh(path, crs="EPSG:2056", is_cancelled=lambda: True)
 
 
 def test_a_terrain_only_file_is_a_ground_not_an_input(tmp_path, district):

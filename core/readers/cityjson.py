@@ -195,6 +195,8 @@ def _documents(path: str) -> tuple[dict, list]:
     header itself, or in a CityJSON Sequence (``.jsonl``: a CityJSON line, then a
     CityJSONFeature per line, each with vertices of its own) the features."""
     sequence = path.lower().endswith(".jsonl")
+    if os.path.getsize(path) == 0:
+        raise UrbanvoxError(f"{path} is empty; give a CityJSON file with buildings.")
     try:
         with open(path, "rb") as file:
             if sequence:  # a line per building: a loop per object, not per face
