@@ -104,14 +104,6 @@
       <translation>Gesamtvolumen der Blöcke (m³)</translation>
     </message>
     <message>
-      <source>The input file.</source>
-      <translation>Die Eingabedatei.</translation>
-    </message>
-    <message>
-      <source>Coordinate reference system of the input, projected (metres or feet).</source>
-      <translation>Koordinatenbezugssystem der Eingabe, projiziert (Meter oder Fuß).</translation>
-    </message>
-    <message>
       <source>ASPRS classification codes of the ground points, comma-separated (standard: 2).</source>
       <translation>ASPRS-Klassifizierungscodes der Bodenpunkte, durch Kommas getrennt (Standard: 2).</translation>
     </message>
@@ -184,6 +176,14 @@
       <translation>Geschlossene, konforme Oberflächen jedes Blocks, des Bodens und der Luft für einen Finite-Elemente- oder CFD-Vernetzer: .msh (gmsh, physikalische Gruppen), .vtu, .obj, .stl oder .ply. Daneben wird ein PNG-Bild geschrieben.</translation>
     </message>
     <message>
+      <source>One or several classified LAS/LAZ files (a tile collection, or a folder of them, is read as one cloud); the ground and building classes are chosen below.</source>
+      <translation>Eine oder mehrere klassifizierte LAS/LAZ-Dateien (eine Kachelsammlung oder ein Ordner davon wird als eine Wolke gelesen); die Boden- und Gebäudeklassen werden weiter unten gewählt.</translation>
+    </message>
+    <message>
+      <source>Coordinate reference system of the points, projected (metres or feet). Default: the one in the file header; required when the header has none (AHN3: EPSG:28992).</source>
+      <translation>Koordinatenbezugssystem der Punkte, projiziert (Meter oder Fuß). Standard: das aus dem Dateikopf; erforderlich, wenn der Kopf keines enthält (AHN3: EPSG:28992).</translation>
+    </message>
+    <message>
       <source>Building mesh (STL/OBJ/PLY/OFF) or CityJSON</source>
       <translation>Gebäudenetz (STL/OBJ/PLY/OFF) oder CityJSON</translation>
     </message>
@@ -214,6 +214,14 @@
     <message>
       <source>Make every column solid from the ground up to its roof, as for airborne LiDAR: for city models whose walls are missing (the air would get in and leave the blocks hollow; the run warns of it). Passages and overhangs are filled too.</source>
       <translation>Jede Säule vom Boden bis zu ihrem Dach füllen, wie bei luftgestütztem LiDAR: für Stadtmodelle, denen Wände fehlen (die Luft dränge ein und ließe die Blöcke hohl; der Lauf warnt davor). Durchgänge und Auskragungen werden ebenfalls gefüllt.</translation>
+    </message>
+    <message>
+      <source>A building mesh (STL, OBJ, PLY or OFF, of any quality: overlaps, gaps, inner surfaces) or a CityJSON file or sequence (.json, .jsonl), whose Building, BuildingPart and BuildingInstallation surfaces are read.</source>
+      <translation>Ein Gebäudenetz (STL, OBJ, PLY oder OFF, in jeder Qualität: Überlappungen, Lücken, innere Flächen) oder eine CityJSON-Datei oder -Sequenz (.json, .jsonl), deren Flächen von Building, BuildingPart und BuildingInstallation gelesen werden.</translation>
+    </message>
+    <message>
+      <source>Coordinate reference system of the coordinates, projected (metres or feet). Required for STL, OBJ, PLY and OFF, which carry none; a CityJSON file's referenceSystem is used when it is not set.</source>
+      <translation>Koordinatenbezugssystem der Koordinaten, projiziert (Meter oder Fuß). Erforderlich für STL, OBJ, PLY und OFF, die keines tragen; das referenceSystem einer CityJSON-Datei wird verwendet, wenn es nicht gesetzt ist.</translation>
     </message>
     <message>
       <source>Reconstruct building blocks from mesh</source>

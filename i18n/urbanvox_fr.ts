@@ -104,14 +104,6 @@
       <translation>Volume total des îlots (m³)</translation>
     </message>
     <message>
-      <source>The input file.</source>
-      <translation>Le fichier d'entrée.</translation>
-    </message>
-    <message>
-      <source>Coordinate reference system of the input, projected (metres or feet).</source>
-      <translation>Système de coordonnées de l'entrée, projeté (mètres ou pieds).</translation>
-    </message>
-    <message>
       <source>ASPRS classification codes of the ground points, comma-separated (standard: 2).</source>
       <translation>Codes de classification ASPRS des points du sol, séparés par des virgules (standard : 2).</translation>
     </message>
@@ -184,6 +176,14 @@
       <translation>Surfaces fermées et conformes de chaque îlot, du sol et de l'air, pour un mailleur éléments finis ou CFD : .msh (gmsh, groupes physiques), .vtu, .obj, .stl ou .ply. Une image PNG est écrite à côté.</translation>
     </message>
     <message>
+      <source>One or several classified LAS/LAZ files (a tile collection, or a folder of them, is read as one cloud); the ground and building classes are chosen below.</source>
+      <translation>Un ou plusieurs fichiers LAS/LAZ classifiés (une collection de dalles, ou un dossier qui en contient, est lue comme un seul nuage) ; les classes du sol et des bâtiments se choisissent plus bas.</translation>
+    </message>
+    <message>
+      <source>Coordinate reference system of the points, projected (metres or feet). Default: the one in the file header; required when the header has none (AHN3: EPSG:28992).</source>
+      <translation>Système de coordonnées de référence des points, projeté (mètres ou pieds). Par défaut : celui de l'en-tête du fichier ; obligatoire quand l'en-tête n'en a pas (AHN3 : EPSG:28992).</translation>
+    </message>
+    <message>
       <source>Building mesh (STL/OBJ/PLY/OFF) or CityJSON</source>
       <translation>Maillage des bâtiments (STL/OBJ/PLY/OFF) ou CityJSON</translation>
     </message>
@@ -214,6 +214,14 @@
     <message>
       <source>Make every column solid from the ground up to its roof, as for airborne LiDAR: for city models whose walls are missing (the air would get in and leave the blocks hollow; the run warns of it). Passages and overhangs are filled too.</source>
       <translation>Rendre chaque colonne pleine du sol jusqu'à son toit, comme pour le LiDAR aéroporté : pour les maquettes urbaines dont des murs manquent (l'air entrerait et laisserait les îlots creux ; le calcul le signale). Les passages et les porte-à-faux sont remplis aussi.</translation>
+    </message>
+    <message>
+      <source>A building mesh (STL, OBJ, PLY or OFF, of any quality: overlaps, gaps, inner surfaces) or a CityJSON file or sequence (.json, .jsonl), whose Building, BuildingPart and BuildingInstallation surfaces are read.</source>
+      <translation>Un maillage de bâtiments (STL, OBJ, PLY ou OFF, de toute qualité : chevauchements, trous, surfaces intérieures) ou un fichier ou une séquence CityJSON (.json, .jsonl), dont les surfaces des Building, BuildingPart et BuildingInstallation sont lues.</translation>
+    </message>
+    <message>
+      <source>Coordinate reference system of the coordinates, projected (metres or feet). Required for STL, OBJ, PLY and OFF, which carry none; a CityJSON file's referenceSystem is used when it is not set.</source>
+      <translation>Système de coordonnées de référence des coordonnées, projeté (mètres ou pieds). Obligatoire pour STL, OBJ, PLY et OFF, qui n'en portent pas ; le referenceSystem d'un fichier CityJSON est utilisé s'il n'est pas donné.</translation>
     </message>
     <message>
       <source>Reconstruct building blocks from mesh</source>

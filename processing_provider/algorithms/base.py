@@ -282,15 +282,16 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         self.addOutput(QgsProcessingOutputFile(self.OUTPUT_PREVIEW, self.tr("Preview picture (PNG)")))
         self.addOutput(QgsProcessingOutputNumber(self.BLOCK_COUNT, self.tr("Number of building blocks")))
         self.addOutput(QgsProcessingOutputNumber(self.TOTAL_VOLUME, self.tr("Total volume of the blocks (m³)")))
-        for name, text in self.PARAMETER_HELP.items():
+        for name, text in {**self.PARAMETER_HELP, **self.INPUT_HELP}.items():
             definition = self.parameterDefinition(name)
             if definition is not None:
                 definition.setHelp(self.tr(text))
 
+    #: Help of the parameters an algorithm words its own way (its input's), over PARAMETER_HELP.
+    INPUT_HELP: dict = {}
+
     #: Tooltip help of every parameter (shown in the dialog and by ``qgis_process help``).
     PARAMETER_HELP = {
-        "INPUT": "The input file.",
-        "CRS": "Coordinate reference system of the input, projected (metres or feet).",
         "GROUND_CLASSES": "ASPRS classification codes of the ground points, comma-separated (standard: 2).",
         "BUILDING_CLASSES": "Classification codes of the building points, comma-separated (standard: 6); "
                             "vegetation, noise and other codes are ignored.",

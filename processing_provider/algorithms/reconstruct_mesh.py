@@ -14,6 +14,13 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
     FILL_UNDER_ROOFS = "FILL_UNDER_ROOFS"
     LOD = "LOD"
     INPUT_TAGS = "cityjson,citygml,city model,lod2,stl,obj,ply,3d bag"
+    INPUT_HELP = {
+        "INPUT": "A building mesh (STL, OBJ, PLY or OFF, of any quality: overlaps, gaps, inner surfaces) or a "
+                 "CityJSON file or sequence (.json, .jsonl), whose Building, BuildingPart and "
+                 "BuildingInstallation surfaces are read.",
+        "CRS": "Coordinate reference system of the coordinates, projected (metres or feet). Required for STL, "
+               "OBJ, PLY and OFF, which carry none; a CityJSON file's referenceSystem is used when it is not set.",
+    }
 
     def name(self):
         return "reconstructfrommesh"

@@ -10,6 +10,12 @@ class ReconstructFromPointCloud(UrbanvoxAlgorithm):
     GROUND_CLASSES = "GROUND_CLASSES"
     BUILDING_CLASSES = "BUILDING_CLASSES"
     INPUT_TAGS = "lidar,las,laz,point cloud,classification,ahn,lidar hd"
+    INPUT_HELP = {
+        "INPUT": "One or several classified LAS/LAZ files (a tile collection, or a folder of them, is read as "
+                 "one cloud); the ground and building classes are chosen below.",
+        "CRS": "Coordinate reference system of the points, projected (metres or feet). Default: the one in the "
+               "file header; required when the header has none (AHN3: EPSG:28992).",
+    }
 
     def name(self):
         return "reconstructfrompointcloud"

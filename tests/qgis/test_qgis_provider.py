@@ -114,6 +114,7 @@ def test_mesh_parameters(urbanvox_plugin):
     alg = algorithm("urbanvox:reconstructfrommesh")
     assert "*.stl" in alg.parameterDefinition("INPUT").fileFilter()
     assert "*.json" in alg.parameterDefinition("INPUT").fileFilter()  # CityJSON
+    assert "CityJSON" in alg.parameterDefinition("INPUT").help() and "STL" in alg.parameterDefinition("CRS").help()
     assert alg.parameterDefinition("GROUND").flags() & optional
     # Optional: a CityJSON file names its own; an STL without it stops with a message (test_qgis_algorithms).
     assert alg.parameterDefinition("CRS").flags() & optional
