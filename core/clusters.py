@@ -22,6 +22,7 @@ from .blocks import BlockTable
 from .grid import VoxelGrid, bounds
 from .measure import BlockMeasures
 from .parallel import map_blocks, row_blocks
+from .progress import Text
 from .reconstruction import Reconstruction
 from .surface import SurfaceModel
 
@@ -122,8 +123,8 @@ def merge(parts: list[Reconstruction]) -> Reconstruction:
     for part in parts:
         for stage, seconds in part.timings.items():
             timings[stage] = timings.get(stage, 0.0) + seconds
-    warnings.append(f"The data fall into {len(parts)} separate clusters, each reconstructed on its own "
-                    "grid; every cluster has its own ground and air volumes.")
+    warnings.append(Text("The data fall into {} separate clusters, each reconstructed on its own grid; every "
+                         "cluster has its own ground and air volumes.", len(parts)))
     return Reconstruction(crs=parts[0].crs, grid=grid, blocks=table, surface=surface, mesh=mesh,
                           measures=measure, footprint_columns=np.concatenate(columns),
                           warnings=warnings, timings=timings,

@@ -51,7 +51,7 @@ from .neighbours import nearest_distance, point_index, search_of_first
 from .parallel import in_background
 from .progress import CancelCheck, Progress, Text
 from .project import COLUMN_VOXELS, project_nodes
-from .reconstruction import Reconstruction
+from .reconstruction import NO_BLOCK, Reconstruction
 from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
 from .tiles import TileOptions, reconstruct_tiled
@@ -362,17 +362,18 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         seeds = _roof_seeds(grid, building_cells, top_k, level.observed,
                             params.max_roof_hole_area / m**2)
         if len(seeds):
-            warnings.append(f"Filled {len(seeds)} roof-hole columns "
-                            f"({len(seeds) * (h * m) ** 2:.0f} m²) with no return under them.")
+            warnings.append(Text("Filled {} roof-hole columns ({:.0f} m²) with no return under them.",
+                                 len(seeds), len(seeds) * (h * m) ** 2))
     labels = classify_voxels(grid, top_k, building_cells, seeds, fill_to_top=airborne,
                              is_cancelled=is_cancelled)
     make_well_composed(labels, is_cancelled=is_cancelled)
     if not airborne:
         # Said without the share, so that clusters and tiles say it once (their warnings are merged).
         if hollow_share(labels) > HOLLOW_WARNING:
-            warnings.append(f"Over {HOLLOW_WARNING:.0%} of the building columns have air under a roof: the "
-                            "surfaces are probably not closed (missing walls let the air in) and the blocks are "
-                            "hollow. FILL_UNDER_ROOFS (--fill-under-roofs) fills every column up to its roof.")
+            warnings.append(Text("Over {:.0%} of the building columns have air under a roof: the surfaces are "
+                                 "probably not closed (missing walls let the air in) and the blocks are hollow. "
+                                 "FILL_UNDER_ROOFS (--fill-under-roofs) fills every column up to its roof.",
+                                 HOLLOW_WARNING))
     lap("classify")
 
     report(0.45, "Building blocks")
@@ -392,11 +393,11 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     blocks, table, dropped_after = blocks_above_thresholds(labels, grid, *thresholds)
     lap("eliminate")
     if dropped or dropped_after:
-        warnings.append(f"Dropped {dropped + dropped_after} blocks below the thresholds "
-                        f"(height {params.min_height:g} m, footprint {params.min_footprint:g} m², "
-                        f"volume {params.min_volume:g} m³).")
+        warnings.append(Text("Dropped {} blocks below the thresholds (height {:g} m, footprint {:g} m², "
+                             "volume {:g} m³).", dropped + dropped_after, params.min_height, params.min_footprint,
+                             params.min_volume))
     if len(table) == 0:
-        warnings.append("No building block in the result.")
+        warnings.append(NO_BLOCK)
 
     report(0.7, "Conforming surfaces")
     columns = block_columns(blocks, int(table.block_id.max()) if len(table) else 0)

@@ -7,7 +7,8 @@ dialog. QGIS shows them in the user's language, but the core knows no
 translator (it imports no QGIS); so a message made of parts is a :class:`Text`,
 which keeps its template and parts for the host to translate, and a message
 of one part is a plain constant string, which the host translates as it is.
-``scripts/i18n.py`` collects both kinds from the source.
+The warnings most runs give are :class:`Text` too. ``scripts/i18n.py``
+collects both kinds from the source.
 """
 from __future__ import annotations
 

@@ -18,8 +18,13 @@ from .crs import metres_per_unit
 from .grid import VoxelGrid
 from .heap import reusing_freed_memory
 from .measure import BlockMeasures
+from .progress import Text
 from .surface import SurfaceModel
 from .topology import stable_order
+
+
+#: The warning of a run (or a tile) that keeps no block.
+NO_BLOCK = Text("No building block in the result.")
 
 
 @dataclass

@@ -51,6 +51,7 @@ from .manifold import repair_height_field
 from .measure import BlockMeasures
 from .parallel import in_background
 from .progress import Text
+from .reconstruction import NO_BLOCK, Reconstruction
 from .surface import unique_nodes
 from .tile_merge import check_copy_keys, check_merge_memory, merge_pieces, renumbered_blocks
 from .workers import TileRunner
@@ -320,7 +321,6 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
                       is_cancelled: Callable[[], bool] | None):
     """Reconstruct ``domain`` tile by tile (see the module) and merge."""
     from .crs import metres_per_unit
-    from .reconstruction import Reconstruction
 
     start = time.perf_counter()
     progress = _monotone(progress)
@@ -388,8 +388,8 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     warnings.extend(_tile_warnings(done))
     warnings.append(f"Reconstructed in {len(cores)} tiles of {tile * h * m:g} m "
                     f"({regrown} rerun on a larger window for blocks crossing their halo).")
-    if len(table) == 0 and "No building block in the result." not in warnings:
-        warnings.append("No building block in the result.")
+    if len(table) == 0 and NO_BLOCK not in warnings:
+        warnings.append(NO_BLOCK)
     if progress is not None:
         progress(1.0, Text("{} blocks", len(table)))
     return Reconstruction(crs=crs, grid=grid, blocks=table, surface=surface, mesh=mesh, measures=measures,
@@ -410,7 +410,7 @@ def _tile_warnings(pieces: list[TilePiece]) -> list[str]:
     kinds: dict[str, list[str]] = {}
     for piece in pieces:
         for text in piece.warnings:
-            if text != "No building block in the result.":  # a tile owning no block
+            if text != NO_BLOCK:  # a tile owning no block
                 kinds.setdefault(re.sub(r"[\d.,]+", "#", text), []).append(text)
     out = []
     for texts in kinds.values():

@@ -292,6 +292,10 @@
       <translation>Keine LAS/LAZ-Datei: {}</translation>
     </message>
     <message>
+      <source>The data fall into {} separate clusters, each reconstructed on its own grid; every cluster has its own ground and air volumes.</source>
+      <translation>Die Daten zerfallen in {} getrennte Gruppen, jede auf ihrem eigenen Gitter rekonstruiert; jede Gruppe hat ihre eigenen Boden- und Luftvolumen.</translation>
+    </message>
+    <message>
       <source>Reading point cloud</source>
       <translation>Punktwolke wird gelesen</translation>
     </message>
@@ -332,12 +336,28 @@
       <translation>{} Blöcke</translation>
     </message>
     <message>
+      <source>Dropped {} blocks below the thresholds (height {:g} m, footprint {:g} m², volume {:g} m³).</source>
+      <translation>{} Blöcke unter den Schwellen verworfen (Höhe {:g} m, Grundfläche {:g} m², Volumen {:g} m³).</translation>
+    </message>
+    <message>
       <source>Smoothing ({} passes)</source>
       <translation>Glättung ({} Durchgänge)</translation>
     </message>
     <message>
+      <source>Filled {} roof-hole columns ({:.0f} m²) with no return under them.</source>
+      <translation>{} Dachlochsäulen ohne Rückmeldung darunter gefüllt ({:.0f} m²).</translation>
+    </message>
+    <message>
+      <source>Over {:.0%} of the building columns have air under a roof: the surfaces are probably not closed (missing walls let the air in) and the blocks are hollow. FILL_UNDER_ROOFS (--fill-under-roofs) fills every column up to its roof.</source>
+      <translation>Über {:.0%} der Gebäudesäulen haben Luft unter einem Dach: die Flächen sind wohl nicht geschlossen (fehlende Wände lassen die Luft hinein) und die Blöcke sind hohl. FILL_UNDER_ROOFS (--fill-under-roofs) füllt jede Säule bis zu ihrem Dach.</translation>
+    </message>
+    <message>
       <source>Cluster {}/{}: {}</source>
       <translation>Gruppe {}/{}: {}</translation>
+    </message>
+    <message>
+      <source>No building block in the result.</source>
+      <translation>Kein Gebäudeblock im Ergebnis.</translation>
     </message>
     <message>
       <source>Tile {}/{} done</source>

@@ -292,6 +292,10 @@
       <translation>Pas un fichier LAS/LAZ : {}</translation>
     </message>
     <message>
+      <source>The data fall into {} separate clusters, each reconstructed on its own grid; every cluster has its own ground and air volumes.</source>
+      <translation>Les données forment {} groupes séparés, reconstruits chacun sur sa propre grille ; chaque groupe a ses propres volumes de sol et d'air.</translation>
+    </message>
+    <message>
       <source>Reading point cloud</source>
       <translation>Lecture du nuage de points</translation>
     </message>
@@ -332,12 +336,28 @@
       <translation>{} îlots</translation>
     </message>
     <message>
+      <source>Dropped {} blocks below the thresholds (height {:g} m, footprint {:g} m², volume {:g} m³).</source>
+      <translation>{} îlots sous les seuils écartés (hauteur {:g} m, emprise {:g} m², volume {:g} m³).</translation>
+    </message>
+    <message>
       <source>Smoothing ({} passes)</source>
       <translation>Lissage ({} passes)</translation>
     </message>
     <message>
+      <source>Filled {} roof-hole columns ({:.0f} m²) with no return under them.</source>
+      <translation>{} colonnes de trous de toit sans retour sous elles remplies ({:.0f} m²).</translation>
+    </message>
+    <message>
+      <source>Over {:.0%} of the building columns have air under a roof: the surfaces are probably not closed (missing walls let the air in) and the blocks are hollow. FILL_UNDER_ROOFS (--fill-under-roofs) fills every column up to its roof.</source>
+      <translation>Plus de {:.0%} des colonnes de bâti ont de l'air sous un toit : les surfaces ne sont sans doute pas fermées (des murs manquants laissent entrer l'air) et les îlots sont creux. FILL_UNDER_ROOFS (--fill-under-roofs) remplit chaque colonne jusqu'à son toit.</translation>
+    </message>
+    <message>
       <source>Cluster {}/{}: {}</source>
       <translation>Groupe {}/{} : {}</translation>
+    </message>
+    <message>
+      <source>No building block in the result.</source>
+      <translation>Aucun îlot bâti dans le résultat.</translation>
     </message>
     <message>
       <source>Tile {}/{} done</source>

@@ -52,8 +52,8 @@ def collect() -> list[str]:
 def source_strings() -> list[str]:
     """The constant texts of the source that reach the translator while an algorithm runs:
     ``tr("...")`` in processing_provider/, and in core/ the messages given to ``report`` or
-    ``progress`` as constants and the templates of ``Text("...", ...)`` (core.progress).
-    Needs no QGIS."""
+    ``progress`` as constants and the templates of ``Text("...", ...)`` (core.progress: progress
+    texts and the warnings most runs give). Needs no QGIS."""
     found: list[str] = []
     for folder, wanted in (("processing_provider", _provider_text), ("core", _progress_text)):
         for path in sorted((ROOT / folder).rglob("*.py")):

@@ -7,6 +7,7 @@ message a run reports reaches those catalogs translated, as it is made (template
 import importlib.util
 import pickle
 import re
+import string
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -30,6 +31,11 @@ def _i18n_script():
 def _catalog(language: str) -> dict[str, str]:
     """The finished translations of i18n/urbanvox_<language>.ts."""
     return _i18n_script().read_ts(REPO_ROOT / "i18n" / f"urbanvox_{language}.ts")
+
+
+def _fields(template: str) -> list[tuple]:
+    """The replacement fields of a template, with their formats: ``{}``, ``{:g}``..."""
+    return [(name, spec) for _, name, spec, _ in string.Formatter().parse(template) if name is not None]
 
 
 def _pieces(message: str) -> list[str]:
@@ -68,12 +74,13 @@ def test_a_text_is_translated_part_by_part_and_a_plain_string_whole():
 def test_every_text_the_source_can_show_is_translated_with_its_placeholders(language):
     collected = _i18n_script().source_strings()
     # The collector finds the kinds of texts there are: the provider's, the core's constants and templates.
-    assert {"Writing the ground", "Projecting nodes onto the data", "Tile {}/{}: {}"} <= set(collected)
+    assert {"Writing the ground", "Projecting nodes onto the data", "Tile {}/{}: {}",
+            "No building block in the result."} <= set(collected)
     catalog = _catalog(language)
     missing = [text for text in collected if text not in catalog]
     assert not missing
-    for text in collected:
-        assert catalog[text].count("{}") == text.count("{}"), (text, catalog[text])
+    for text in collected:  # the same fields, with the same formats, in the same order
+        assert _fields(catalog[text]) == _fields(text), (text, catalog[text])
 
 
 def test_every_message_of_a_run_is_collected_and_translated(district):
@@ -81,7 +88,7 @@ def test_every_message_of_a_run_is_collected_and_translated(district):
     one of them reads differently in French and German (so none stays English)."""
     seen = []
     params = ReconstructionParams(voxel_size=2.0, extent=district.district.extent)
-    reconstruct_point_cloud(district.laz, params=params, progress=lambda f, m: seen.append(m))
+    single = reconstruct_point_cloud(district.laz, params=params, progress=lambda f, m: seen.append(m))
     reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=100.0),
                             progress=lambda f, m: seen.append(m))
     assert any(m.startswith("Tile 9/9") for m in seen) and any(re.fullmatch(r"\d+ blocks", m) for m in seen)
@@ -91,3 +98,9 @@ def test_every_message_of_a_run_is_collected_and_translated(district):
         catalog = _catalog(language)
         shown = {m: translated(m, lambda text: catalog.get(text, text)) for m in seen}
         assert not [m for m, text in shown.items() if text == m], language
+    # The warnings the district gives (blocks below the thresholds, roof holes) are translated too.
+    common = [w for w in single.warnings if isinstance(w, Text)]
+    assert any(w.startswith("Dropped") for w in common) and not [w for w in common if w.template not in collected]
+    french = _catalog("fr")
+    assert any(translated(w, french.get).endswith("écartés (hauteur 2.5 m, emprise 10 m², volume 20 m³).")
+               for w in common)

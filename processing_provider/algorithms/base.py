@@ -440,7 +440,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(str(err)) from err
 
         for warning in result.warnings:
-            feedback.pushWarning(str(warning))
+            feedback.pushWarning(translated(warning, self.tr))
         if feedback.isCanceled():  # before the first output: nothing half-written
             raise QgsProcessingException(self.tr("Cancelled; no output was written."))
         return self.writeOutputs(result, parameters, context, feedback)

@@ -117,6 +117,7 @@ def test_a_french_qgis_shows_the_run_in_french(processing, district, tmp_path):
     assert {"Lecture du nuage de points", "Lissage (3 passes)", "Projection des nœuds sur les données",
             "Écriture des îlots et de leurs emprises"} <= set(texts), texts
     assert any(text.endswith(" îlots") for text in texts), texts
+    assert any("îlots sous les seuils écartés" in warning for warning in feedback.warnings), feedback.warnings
     assert not [text for text in texts if text.startswith(("Reading", "Smoothing", "Projecting", "Writing"))]
 
 
