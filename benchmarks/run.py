@@ -182,7 +182,7 @@ def run_case(spec: dict) -> dict:
 
 def _run_once(spec: dict, params, airborne: bool):
     """One read, reconstruction and export: the report, the result, the points and CRS."""
-    from core.crs import metres_per_unit, resolve_crs
+    from core.crs import metres_per_unit
     from core.pipeline import reconstruct_points
 
     stages: dict[str, dict] = {}
@@ -197,28 +197,15 @@ def _run_once(spec: dict, params, airborne: bool):
         del points
         stages["read"] = {"s": time.perf_counter() - start, "rss": _rss_mb()}
     else:
-        from core.readers.cityjson import is_cityjson, read_cityjson
-        from core.readers.mesh import base_points, read_triangles
-        from core.sampling import sample_thinned
+        from core.pipeline import read_surfaces, sample_surfaces
 
-        if is_cityjson(spec["paths"][0]):  # as reconstruct_mesh reads it
-            city = read_cityjson(spec["paths"][0])
-            crs = resolve_crs(city.crs, spec["crs"], spec["paths"][0])
-            triangles, terrain, warnings = city.buildings, city.terrain, list(city.warnings)
-        else:
-            crs = resolve_crs(None, spec["crs"], spec["paths"][0])
-            triangles, terrain = read_triangles(spec["paths"][0]), None
-            warnings = list(triangles.warnings)
-        unit = metres_per_unit(crs)
-        h = params.voxel_size / unit
-        report["n_read"] = int(len(triangles.corners()))
+        # As reconstruct_mesh reads and samples it, each timed apart.
+        crs, triangles, terrain, warnings = read_surfaces(spec["paths"][0], spec["crs"])
+        report["n_read"] = int(len(triangles.faces))
         stages["read"] = {"s": time.perf_counter() - start, "rss": _rss_mb()}
         lap = time.perf_counter()
-        building = sample_thinned(triangles.corners(), 0.1 * h, h / 3)
-        if terrain is not None:
-            ground = sample_thinned(terrain.corners(), 0.1 * h, h / 3)
-        else:
-            ground = base_points(triangles, h, unit=unit)
+        unit = metres_per_unit(crs)
+        ground, building = sample_surfaces(triangles, terrain, params.voxel_size / unit, unit)
         stages["sample"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
     report["n_ground"], report["n_building"] = int(len(ground)), int(len(building))
 
@@ -277,10 +264,11 @@ def _layers_mb(result) -> float:
 def run_baselines(spec: dict, ground, building, crs, params, airborne: bool) -> dict:
     from benchmarks import baselines as bl
     from core.crs import metres_per_unit
+    from core.readers.cityjson import is_cityjson
 
     grids = list(bl.pipeline_grids(ground, building, crs, params.voxel_size))
     out: dict = {"binning": bl.binning(grids)}
-    if spec["kind"] == "mesh" and not str(spec["paths"][0]).lower().endswith((".json", ".jsonl")):  # no CityJSON
+    if spec["kind"] == "mesh" and not is_cityjson(spec["paths"][0]):  # trimesh reads no CityJSON
         h = params.voxel_size / metres_per_unit(crs)
         out["trimesh"] = bl.trimesh_voxelise(spec["paths"][0], h)
     m = metres_per_unit(crs)

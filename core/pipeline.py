@@ -175,13 +175,28 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     passages and overhangs. Unlike LiDAR, no roof hole is filled: a mesh has
     no missing returns, and a courtyard is air.
     """
-    from .readers.cityjson import is_cityjson, read_cityjson
-    from .readers.mesh import base_points, read_triangles
-    from .sampling import sample_thinned
-
     params = params or ReconstructionParams()
     report = _reporter(progress, is_cancelled)
     report(0.0, "Reading mesh")
+    crs_obj, triangles, ground_triangles, warnings = read_surfaces(path, crs, ground_path, lod, is_cancelled)
+    unit = metres_per_unit(crs_obj)
+    report(0.05, "Sampling triangles")
+    ground, building = sample_surfaces(triangles, ground_triangles, params.voxel_size / unit, unit, is_cancelled)
+    if fill_under_roofs:
+        params = replace(params, max_roof_hole_area=0.0)
+    return reconstruct_points(ground, building, crs_obj, params, airborne=fill_under_roofs, warnings=warnings,
+                              tiles=tiles, progress=progress, is_cancelled=is_cancelled,
+                              overwrite_points=True)
+
+
+def read_surfaces(path: str | Path, crs: str | None = None, ground_path: str | Path | None = None,
+                  lod: str | None = None, is_cancelled: CancelCheck | None = None):
+    """The input of :func:`reconstruct_mesh`: its CRS (pyproj), the buildings'
+    triangles, the ground's (None: none given, the buildings' bottoms serve)
+    and the reading's warnings. The benchmarks time it apart."""
+    from .readers.cityjson import is_cityjson, read_cityjson
+    from .readers.mesh import read_triangles
+
     if is_cityjson(path):
         city = read_cityjson(path, is_cancelled, lod)
         crs_obj = resolve_crs(city.crs, crs, str(path))
@@ -201,21 +216,24 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
                             "is a mesh, read whole.")
     if ground_path:
         ground_triangles = _ground_triangles(ground_path, is_cancelled)
-    unit = metres_per_unit(crs_obj)
-    h = params.voxel_size / unit
+    return crs_obj, triangles, ground_triangles, warnings
+
+
+def sample_surfaces(triangles, ground_triangles, h: float, unit: float,
+                    is_cancelled: CancelCheck | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Ground and building points of :func:`read_surfaces`' triangles, for voxels
+    of ``h`` CRS units (``unit`` metres each)."""
+    from .readers.mesh import base_points
+    from .sampling import sample_thinned
+
     # Samples at 10 % of a voxel (paper §2), kept as one mean point per third
     # of a voxel: the same voxel occupancy, a tenth of the points.
-    report(0.05, "Sampling triangles")
     building = sample_thinned(triangles.corners(), 0.1 * h, h / 3, is_cancelled)
     if ground_triangles is not None:
         ground = sample_thinned(ground_triangles.corners(), 0.1 * h, h / 3, is_cancelled)
     else:
         ground = base_points(triangles, h, unit=unit)
-    if fill_under_roofs:
-        params = replace(params, max_roof_hole_area=0.0)
-    return reconstruct_points(ground, building, crs_obj, params, airborne=fill_under_roofs, warnings=warnings,
-                              tiles=tiles, progress=progress, is_cancelled=is_cancelled,
-                              overwrite_points=True)
+    return ground, building
 
 
 def _ground_triangles(path: str | Path, is_cancelled: CancelCheck | None):

@@ -39,7 +39,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import UrbanvoxError
-from .topology import sorted_rows
+from .topology import unique_rows
 
 __all__ = ["triangulate_polygons", "newell_normals"]
 
@@ -219,7 +219,7 @@ def _constrained(vertices: np.ndarray, index: np.ndarray, rings: _Rings,
     # Each corner's vertex: the polygon's corner with the same kept coordinates.
     own = np.flatnonzero(wanted[rings.polygon[rings.corner_ring]])
     known = _keys(rings.polygon[rings.corner_ring[own]], rings.uv[own])
-    key = _row_groups(np.concatenate([known, _keys(polygon, uv)]))
+    key = unique_rows(np.concatenate([known, _keys(polygon, uv)]))[1]
     vertex = np.full(int(key.max()) + 1, -1, dtype=np.int64)
     vertex[key[:len(own)]] = index[own]
     found = vertex[key[len(own):]]
@@ -242,21 +242,6 @@ def _keys(polygon: np.ndarray, uv: np.ndarray) -> np.ndarray:
     """(polygon, u, v) rows of int64 that compare equal exactly when the coordinates do (-0.0 as 0.0)."""
     bits = np.ascontiguousarray(uv + 0.0).view(np.int64)
     return np.column_stack([polygon, bits])
-
-
-def _row_groups(rows: np.ndarray) -> np.ndarray:
-    """A number per row of int64 ``rows``, equal for equal rows (``np.unique(rows, axis=0)``'s
-    inverse, :func:`core.topology.sorted_rows`).
-
-    Example
-    -------
-    >>> _row_groups(np.array([[1, 2], [0, 5], [1, 2]])).tolist()
-    [1, 0, 1]
-    """
-    order, starts = sorted_rows(rows)
-    group = np.empty(len(rows), dtype=np.int64)
-    group[order] = np.cumsum(starts) - 1
-    return group
 
 
 def _lifted(rings: _Rings, polygon: np.ndarray, uv: np.ndarray) -> np.ndarray:

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 from typing import Callable
 
+from .errors import Cancelled
+
 #: ``progress(fraction, message)``: the share of the work done (0 to 1) and
 #: what is being done (a constant string or a :class:`Text`).
 Progress = Callable[[float, str], None]
@@ -21,6 +23,12 @@ Progress = Callable[[float, str], None]
 #: ``is_cancelled()``: whether the user asked to stop; work then raises
 #: :class:`core.errors.Cancelled` at its next check.
 CancelCheck = Callable[[], bool]
+
+
+def check_cancel(is_cancelled: CancelCheck | None) -> None:
+    """Raise :class:`core.errors.Cancelled` if ``is_cancelled`` (optional) says so."""
+    if is_cancelled is not None and is_cancelled():
+        raise Cancelled()
 
 
 class Text(str):

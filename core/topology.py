@@ -158,6 +158,22 @@ def sorted_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return order, starts
 
 
+def unique_rows(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(rows, axis=0, return_inverse=True)``, by :func:`sorted_rows`: the unique
+    rows in order, and for every row the number of its unique row.
+
+    Examples
+    --------
+    >>> unique, inverse = unique_rows(np.array([[1, 2], [0, 5], [1, 2]]))
+    >>> unique.tolist(), inverse.tolist()
+    ([[0, 5], [1, 2]], [1, 0, 1])
+    """
+    order, starts = sorted_rows(rows)
+    inverse = np.empty(len(rows), dtype=np.int64)
+    inverse[order] = np.cumsum(starts) - 1
+    return rows.take(order[starts], axis=0), inverse
+
+
 def changed_rows(new: np.ndarray, old: np.ndarray) -> np.ndarray:
     """Rows of two (N, 3) position tables that differ: ``np.any(new != old, axis=1)``.
 

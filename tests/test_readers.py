@@ -547,7 +547,7 @@ def test_rows_are_written_in_place_grown_past_the_count_and_trimmed():
 def test_sorted_rows_give_what_numpy_unique_gives(kind):
     """The mesh reader merges vertices and finds repeated triangles with core.topology.sorted_rows
     (a lexsort): the same unique rows, first occurrences and inverse as np.unique(axis=0)."""
-    from core.topology import sorted_rows
+    from core.topology import sorted_rows, unique_rows
 
     rng = np.random.default_rng(7)
     if kind == "float":
@@ -561,4 +561,6 @@ def test_sorted_rows_give_what_numpy_unique_gives(kind):
     mine = np.empty(len(rows), dtype=np.int64)
     mine[order] = np.cumsum(starts) - 1
     assert np.array_equal(mine, inverse.reshape(-1))
+    rows_of, inverse_of = unique_rows(rows)
+    assert np.array_equal(rows_of, unique) and np.array_equal(inverse_of, inverse.reshape(-1))
     assert len(unique) < len(rows)

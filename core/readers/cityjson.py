@@ -56,8 +56,9 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from ..errors import Cancelled, UrbanvoxError
+from ..errors import UrbanvoxError
 from ..polygons import triangulate_polygons
+from ..progress import check_cancel
 from .mesh import Triangles, clean_triangles
 
 __all__ = ["CityModel", "read_cityjson", "is_cityjson", "BUILDING_TYPES", "TERRAIN_TYPES"]
@@ -132,7 +133,7 @@ def read_cityjson(path: "str | os.PathLike[str]", is_cancelled: Optional[Callabl
     if not os.path.isfile(path):
         raise UrbanvoxError(f"CityJSON file {path} does not exist; check the path.")
     header, documents = _documents(path)
-    _check_cancel(is_cancelled)
+    check_cancel(is_cancelled)
     if lod and not re.fullmatch(r"\d+(\.\d+)?", str(lod).strip()):
         raise UrbanvoxError(f"The LoD {lod!r} is not a level of detail: write it as CityJSON does, e.g. 1.2 or 2.")
     wanted = _lod({"lod": lod}) if lod else None
@@ -176,18 +177,13 @@ def read_cityjson(path: "str | os.PathLike[str]", is_cancelled: Optional[Callabl
         listed = ", ".join(f"{n} {kind}" for kind, n in sorted((+left_out).items()))
         warnings.append(f"{os.path.basename(path)}: left out geometries that are not building or terrain "
                         f"surfaces: {listed}.")
-    _check_cancel(is_cancelled)
+    check_cancel(is_cancelled)
     buildings, terrain = (_triangles(vertices, chosen[role], path, is_cancelled) if chosen[role] else None
                           for role in ("building", "terrain"))
     crs = _reference_system(header.get("metadata") or {}, path, warnings)
     for part in (buildings, terrain):
         warnings += part.warnings if part is not None else []
     return CityModel(buildings=buildings, terrain=terrain, crs=crs, warnings=warnings)
-
-
-def _check_cancel(is_cancelled: Optional[Callable[[], bool]]) -> None:
-    if is_cancelled is not None and is_cancelled():
-        raise Cancelled()
 
 
 def _documents(path: str) -> tuple[dict, list]:
@@ -278,7 +274,7 @@ def _triangles(vertices: np.ndarray, geometries: list, path: str,
         raise UrbanvoxError(f"{path}: a boundary refers to vertex {int(index[outside[0]])}, but its document has "
                             f"{int(document_size[of_geometry[outside[0]]])} vertices; the file is damaged.")
     index = index + first_vertex[of_geometry]
-    _check_cancel(is_cancelled)
+    check_cancel(is_cancelled)
     all_vertices, faces = triangulate_polygons(vertices, index, ring_sizes, ring_counts)
     if len(faces) == 0:
         raise UrbanvoxError(f"{path}: no surface has an area (every polygon is degenerate).")

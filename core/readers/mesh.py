@@ -32,8 +32,9 @@ import scipy.sparse
 from scipy.ndimage import minimum_filter
 from scipy.sparse.csgraph import connected_components
 
-from ..errors import Cancelled, UrbanvoxError
-from ..topology import run_starts, sorted_rows
+from ..errors import UrbanvoxError
+from ..progress import check_cancel
+from ..topology import run_starts, sorted_rows, unique_rows
 from ..vectors import finite_rows
 
 __all__ = ["MESH_SUFFIXES", "Triangles", "read_triangles", "clean_triangles", "base_points", "edge_counts"]
@@ -73,11 +74,6 @@ class Triangles:
     def corners(self) -> np.ndarray:
         """(F, 3, 3) corner coordinates: ``corners()[f, i]`` is vertex ``i`` of face ``f``."""
         return self.vertices[self.faces]
-
-
-def _check_cancel(is_cancelled: Optional[Callable[[], bool]]) -> None:
-    if is_cancelled is not None and is_cancelled():
-        raise Cancelled()
 
 
 def _load(path: str):
@@ -133,7 +129,7 @@ def read_triangles(path: "str | os.PathLike[str]", is_cancelled: Optional[Callab
     path : str or path-like
         ``.stl``, ``.obj``, ``.ply`` or ``.off`` file in a projected CRS.
     is_cancelled : callable, optional
-        Zero-argument callable; True raises :class:`Cancelled`.
+        Zero-argument callable; True raises :class:`~core.errors.Cancelled`.
 
     Returns
     -------
@@ -161,9 +157,9 @@ def read_triangles(path: "str | os.PathLike[str]", is_cancelled: Optional[Callab
         )
     if not os.path.isfile(path):
         raise UrbanvoxError(f"Mesh file {path} does not exist; check the path.")
-    _check_cancel(is_cancelled)
+    check_cancel(is_cancelled)
     vertices, faces = _load(path)
-    _check_cancel(is_cancelled)
+    check_cancel(is_cancelled)
     return clean_triangles(vertices, faces, path, is_cancelled)
 
 
@@ -197,13 +193,12 @@ def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
 
     # Exact merge: "+ 0.0" turns -0.0 into 0.0 so both compare equal row-wise.
     used = np.unique(faces)
-    xyz = vertices[used] + 0.0
-    order, starts = sorted_rows(xyz)  # np.unique(xyz, axis=0, return_inverse=True), faster
+    vertices_used, inverse = unique_rows(vertices[used] + 0.0)
     remap = np.zeros(len(vertices), dtype=np.int64)
-    remap[used[order]] = np.cumsum(starts) - 1
+    remap[used] = inverse
     faces = remap[faces]
-    vertices = xyz[order[starts]]
-    _check_cancel(is_cancelled)
+    vertices = vertices_used
+    check_cancel(is_cancelled)
 
     # Degenerate: repeated corner, or area negligible against the longest edge
     # (collinear within float64 rounding; such faces carry no surface to sample).
@@ -375,12 +370,6 @@ def base_points(tris: Triangles, voxel_size: float, unit: float = 1.0) -> np.nda
     keep[index[_not_floating(vertices[index], unit)]] = True
 
     edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    edges = _unique_rows(edges[keep[edges].all(axis=1)])
+    edges = unique_rows(edges[keep[edges].all(axis=1)])[0]
     extra = _densify_edges(vertices, edges, voxel_size / 2.0)
-    return _unique_rows(np.vstack([vertices[keep], extra]))
-
-
-def _unique_rows(rows: np.ndarray) -> np.ndarray:
-    """``np.unique(rows, axis=0)``, faster (:func:`core.topology.sorted_rows`)."""
-    order, starts = sorted_rows(rows)
-    return rows.take(order[starts], axis=0)
+    return unique_rows(np.vstack([vertices[keep], extra]))[0]
