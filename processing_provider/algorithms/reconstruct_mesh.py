@@ -70,6 +70,8 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
             self.addParameter(parameter)
 
     def requiredModules(self, parameters, context):  # noqa: N802
+        # The suffixes of core.readers.cityjson.is_cityjson, not the function: importing core.readers
+        # imports laspy, one of the modules this check is for.
         files = [self.parameterAsFile(parameters, name, context) for name in (self.INPUT, self.GROUND)]
         if all(not path or path.lower().endswith((".json", ".jsonl")) for path in files):
             return BASE_MODULES  # CityJSON: read with json and shapely
