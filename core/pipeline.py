@@ -35,6 +35,7 @@ from typing import Sequence
 import numpy as np
 
 from . import jit
+from .block_buildings import block_buildings
 from .blocks import block_columns, blocks_above_thresholds
 from .classify import classify_voxels, hollow_share, roof_hole_columns
 from .clusters import merge as merge_clusters
@@ -184,9 +185,19 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     ground, building = sample_surfaces(triangles, ground_triangles, params.voxel_size / unit, unit, is_cancelled)
     if fill_under_roofs:
         params = replace(params, max_roof_hole_area=0.0)
-    return reconstruct_points(ground, building, crs_obj, params, airborne=fill_under_roofs, warnings=warnings,
-                              tiles=tiles, progress=progress, is_cancelled=is_cancelled,
-                              overwrite_points=True)
+    result = reconstruct_points(ground, building, crs_obj, params, airborne=fill_under_roofs, warnings=warnings,
+                                tiles=tiles, progress=progress, is_cancelled=is_cancelled,
+                                overwrite_points=True)
+    if triangles.owner is not None:  # a city model names its buildings: which block holds which
+        corner = result.grid.offset[:2] + result.grid.origin[:2]
+        result.block_buildings, in_none = block_buildings(triangles, result.footprint_columns,
+                                                          np.asarray(result.blocks.block_id), corner,
+                                                          result.grid.voxel_size)
+        if in_none:
+            result.warnings.append(Text("{} of the city model's {} buildings are in no block (below the "
+                                        "thresholds, outside the extent, or less than a quarter of their plan "
+                                        "area in any one block).", in_none, len(triangles.owner_ids)))
+    return result
 
 
 def read_surfaces(path: str | Path, crs: str | None = None, ground_path: str | Path | None = None,

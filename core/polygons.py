@@ -27,9 +27,9 @@ An L-shaped roof (concave: not a fan) and a square with a square hole:
 ...                      [0, 0, 0], [3, 0, 0], [3, 3, 0], [0, 3, 0],
 ...                      [1, 1, 0], [1, 2, 0], [2, 2, 0], [2, 1, 0]], float)
 >>> index = np.arange(14)
->>> all_vertices, faces = triangulate_polygons(vertices, index, np.array([6, 4, 4]), np.array([1, 2]))
->>> len(all_vertices), len(faces)
-(14, 12)
+>>> all_vertices, faces, polygon = triangulate_polygons(vertices, index, np.array([6, 4, 4]), np.array([1, 2]))
+>>> len(all_vertices), len(faces), np.bincount(polygon).tolist()
+(14, 12, [4, 8])
 >>> corners = all_vertices[faces]
 >>> float(0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum())  # 6 + (9 - 1)
 14.0
@@ -48,7 +48,7 @@ _KEPT_AXES = np.array([[1, 2], [0, 2], [0, 1]])
 
 
 def triangulate_polygons(vertices: np.ndarray, index: np.ndarray, ring_sizes: np.ndarray,
-                         ring_counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                         ring_counts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Triangles covering every polygon.
 
     Parameters
@@ -72,20 +72,26 @@ def triangulate_polygons(vertices: np.ndarray, index: np.ndarray, ring_sizes: np
     faces : ndarray of int (F, 3)
         Fans first, polygon by polygon, then the other polygons' triangles;
         each turns as its polygon's outer ring does (the same normal).
+    polygon : ndarray of int (F,)
+        The polygon each triangle covers, numbered as ``ring_counts`` is
+        (so that a city object's triangles can be told apart).
     """
-    index, ring_sizes, ring_counts = _drop_short_rings(np.asarray(index, dtype=np.int64),
-                                                       np.asarray(ring_sizes, dtype=np.int64),
-                                                       np.asarray(ring_counts, dtype=np.int64))
+    index, ring_sizes, ring_counts, number = _drop_short_rings(np.asarray(index, dtype=np.int64),
+                                                               np.asarray(ring_sizes, dtype=np.int64),
+                                                               np.asarray(ring_counts, dtype=np.int64))
     if len(ring_counts) == 0:
-        return vertices, np.empty((0, 3), dtype=np.int64)
+        return vertices, np.empty((0, 3), dtype=np.int64), np.empty(0, dtype=np.int64)
     rings = _Rings(vertices, index, ring_sizes, ring_counts)
     fan = (ring_counts == 1) & rings.convex()[rings.first]
-    faces = [_fans(index, rings, rings.first[fan])]
+    fan_polygons = np.flatnonzero(fan)
+    faces = [_fans(index, rings, rings.first[fan_polygons])]
+    polygon = [np.repeat(fan_polygons, rings.sizes[rings.first[fan_polygons]] - 2)]
     others = np.flatnonzero(~fan)
     if len(others):
-        vertices, flat_faces = _constrained(vertices, index, rings, others)
+        vertices, flat_faces, flat_polygon = _constrained(vertices, index, rings, others)
         faces.append(flat_faces)
-    return vertices, np.concatenate(faces)
+        polygon.append(flat_polygon)
+    return vertices, np.concatenate(faces), number.take(np.concatenate(polygon))
 
 
 def newell_normals(points: np.ndarray, ring_start: np.ndarray, ring_sizes: np.ndarray) -> np.ndarray:
@@ -165,18 +171,20 @@ def _following(ring_start: np.ndarray, ring_sizes: np.ndarray) -> np.ndarray:
 
 
 def _drop_short_rings(index: np.ndarray, ring_sizes: np.ndarray, ring_counts: np.ndarray):
-    """The rings of three corners or more, and the polygons whose outer ring is one."""
-    ring_counts = ring_counts[ring_counts > 0]
+    """The rings of three corners or more, and the polygons whose outer ring is one; and
+    the number of each polygon kept among those given."""
+    number = np.flatnonzero(ring_counts > 0)
+    ring_counts = ring_counts.take(number)
     short = ring_sizes < 3
     if not short.any():
-        return index, ring_sizes, ring_counts
+        return index, ring_sizes, ring_counts, number
     first = np.cumsum(ring_counts) - ring_counts
     polygon = np.repeat(np.arange(len(ring_counts)), ring_counts)
     kept_polygon = ~short[first]
     kept_ring = ~short & kept_polygon[polygon]
     index = index[np.repeat(kept_ring, ring_sizes)]
     ring_counts = np.bincount(polygon[kept_ring], minlength=len(ring_counts))[kept_polygon]
-    return index, ring_sizes[kept_ring], ring_counts
+    return index, ring_sizes[kept_ring], ring_counts, number.compress(kept_polygon)
 
 
 def _fans(index: np.ndarray, rings: _Rings, fan_rings: np.ndarray) -> np.ndarray:
@@ -189,8 +197,9 @@ def _fans(index: np.ndarray, rings: _Rings, fan_rings: np.ndarray) -> np.ndarray
 
 
 def _constrained(vertices: np.ndarray, index: np.ndarray, rings: _Rings,
-                 polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The constrained Delaunay triangles of ``polygons`` (see the module doc)."""
+                 polygons: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The constrained Delaunay triangles of ``polygons`` (see the module doc): the
+    vertices with those added, the triangles, and the polygon of each."""
     import shapely
 
     if not hasattr(shapely, "constrained_delaunay_triangles"):
@@ -235,7 +244,7 @@ def _constrained(vertices: np.ndarray, index: np.ndarray, rings: _Rings,
     turn = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     backwards = np.einsum("ij,ij->i", turn, rings.normal[polygon[::3]]) < 0
     faces[backwards] = faces[backwards][:, ::-1]
-    return vertices, faces
+    return vertices, faces, polygon[::3]
 
 
 def _keys(polygon: np.ndarray, uv: np.ndarray) -> np.ndarray:

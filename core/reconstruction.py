@@ -49,6 +49,10 @@ class Reconstruction:
     #: ``mesh``, in its order (:func:`core.measure.block_face_split`), as the
     #: measures found it; None where not carried (a tiled run's merge).
     block_diagonal: np.ndarray | None = field(default=None, repr=False, compare=False)
+    #: For each block of :attr:`blocks`, the identifiers of the input's
+    #: buildings it holds (:mod:`core.block_buildings`); None where the input
+    #: names none (point clouds, mesh files).
+    block_buildings: list[tuple[str, ...]] | None = field(default=None, repr=False, compare=False)
     #: :attr:`mesh_triangles`, once made.
     _triangles: SurfaceModel | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -74,7 +78,9 @@ class Reconstruction:
         ``volume``, ``surface_area``, ``footprint_area`` and ``height`` are of
         the voxel model (§3); ``mesh_volume``, ``mesh_area``, ``roof_area``,
         ``facade_area``, the qualities and the distances are of the final
-        smoothed, projected mesh (§4). Lengths in metres.
+        smoothed, projected mesh (§4). Lengths in metres. Where the input names
+        its buildings (:attr:`block_buildings`), ``buildings`` (their
+        identifiers, separated by ``;``) and ``n_buildings`` follow.
         """
         m = self.metres_per_unit
         t = self.blocks
@@ -102,6 +108,9 @@ class Reconstruction:
                 "mean_dist": _plain(me.mean_dist[index] * m),
                 "max_dist": _plain(me.max_dist[index] * m),
             })
+            if self.block_buildings is not None:
+                rows[-1]["buildings"] = ";".join(self.block_buildings[b])
+                rows[-1]["n_buildings"] = len(self.block_buildings[b])
         return rows
 
     def block_surface_wkb(self) -> Iterator[bytes]:

@@ -61,15 +61,17 @@ def _field_types():
     if Qgis.versionInt() >= 33800:
         from qgis.PyQt.QtCore import QMetaType
 
-        return {"int": QMetaType.Type.Int, "long": QMetaType.Type.LongLong, "double": QMetaType.Type.Double}
+        return {"int": QMetaType.Type.Int, "long": QMetaType.Type.LongLong, "double": QMetaType.Type.Double,
+                "string": QMetaType.Type.QString}
     from qgis.PyQt.QtCore import QVariant
 
-    return {"int": QVariant.Type.Int, "long": QVariant.Type.LongLong, "double": QVariant.Type.Double}
+    return {"int": QVariant.Type.Int, "long": QVariant.Type.LongLong, "double": QVariant.Type.Double,
+            "string": QVariant.Type.String}
 
 
 _FIELD_TYPES = _field_types()
 
 
 def make_field(name, kind):
-    """A :class:`QgsField` of ``kind`` ``"int"``, ``"long"`` or ``"double"``."""
+    """A :class:`QgsField` of ``kind`` ``"int"``, ``"long"``, ``"double"`` or ``"string"``."""
     return QgsField(name, _FIELD_TYPES[kind])

@@ -51,7 +51,7 @@ def _on_planes(polygons):
 def test_every_polygon_is_covered_by_triangles_of_its_own_vertices_and_area():
     polygons, areas = _on_planes(None)
     vertices, index, sizes, counts = _rings(polygons)
-    all_vertices, faces = triangulate_polygons(vertices, index, sizes, counts)
+    all_vertices, faces, _ = triangulate_polygons(vertices, index, sizes, counts)
     assert len(all_vertices) == len(vertices)  # no vertex added
     # Fans and constrained triangles: n - 2 + 2 holes triangles per polygon.
     assert len(faces) == sum(sum(len(r) for r in p) - 2 + 2 * (len(p) - 1) for p in polygons)
@@ -78,7 +78,7 @@ def test_a_bow_tie_is_made_valid_and_its_crossing_put_back_on_its_plane():
     ring = [tuple(np.array([7e5, 6e6, 50.0]) + u * tilt[0] + v * tilt[1]) for u, v in
             [(0, 0), (2, 1), (2, 0), (0, 1)]]
     vertices, index, sizes, counts = _rings([[ring]])
-    all_vertices, faces = triangulate_polygons(vertices, index, sizes, counts)
+    all_vertices, faces, _ = triangulate_polygons(vertices, index, sizes, counts)
     assert len(all_vertices) == 5 and len(faces) == 2
     crossing = all_vertices[4]
     assert crossing == pytest.approx(np.array([7e5, 6e6, 50.0]) + 1.0 * tilt[0] + 0.5 * tilt[1], abs=1e-6)
@@ -91,7 +91,7 @@ def test_a_star_is_not_fanned_and_short_rings_are_left_out():
     hole_of_two = [[(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [(0.2, 0.2, 0), (0.4, 0.4, 0)]]
     outer_of_two = [[(5, 5, 0), (6, 6, 0)]]
     vertices, index, sizes, counts = _rings([star, hole_of_two, outer_of_two])
-    all_vertices, faces = triangulate_polygons(vertices, index, sizes, counts)
+    all_vertices, faces, _ = triangulate_polygons(vertices, index, sizes, counts)
     area = _areas(all_vertices, faces)
     # The star's outline: ten corners, the points at radius 1 and the crossings at radius r.
     r = np.cos(np.radians(72)) / np.cos(np.radians(36))
@@ -366,7 +366,7 @@ def _volume_under_roofs(path):
              for surface, value in zip(geometry["boundaries"], geometry["semantics"]["values"])
              if geometry["semantics"]["surfaces"][value]["type"] == "RoofSurface"]
     rings = [ring for surface in roofs for ring in surface]
-    all_vertices, faces = triangulate_polygons(vertices, np.concatenate(rings), np.array([len(r) for r in rings]),
+    all_vertices, faces, _ = triangulate_polygons(vertices, np.concatenate(rings), np.array([len(r) for r in rings]),
                                                np.array([len(surface) for surface in roofs]))
     corners = all_vertices[faces]
     plan = np.cross(corners[:, 1, :2] - corners[:, 0, :2], corners[:, 2, :2] - corners[:, 0, :2])

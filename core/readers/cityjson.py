@@ -78,8 +78,10 @@ class CityModel:
     Attributes
     ----------
     buildings : Triangles or None
-        The buildings' surfaces, triangulated and cleaned; None in a file of
-        terrain only.
+        The buildings' surfaces, triangulated and cleaned, with each face's
+        building (``owner``, ``owner_ids``: a ``BuildingPart``'s or an
+        installation's is the building it is part of, through ``parents``);
+        None in a file of terrain only.
     terrain : Triangles or None
         The ``TINRelief`` surfaces, when the file has any.
     crs : pyproj.CRS or None
@@ -139,15 +141,17 @@ def read_cityjson(path: "str | os.PathLike[str]", is_cancelled: Optional[Callabl
     wanted = _lod({"lod": lod}) if lod else None
     with_wanted = 0
     warnings: list = []
-    # The geometries chosen, each with its document's first vertex and number of vertices.
+    # The geometries chosen, each with its document's first vertex and number of vertices,
+    # and its object's identifier.
     chosen: dict = {"building": [], "terrain": []}
     left_out: Counter = Counter()
+    parent_of: dict = {}
     vertices = []
     first_vertex = 0
     for document in documents:  # one, or a sequence's features (a building each)
         vertices.append(_vertices(document, header, path))
         own = (first_vertex, len(vertices[-1]))
-        for city_object in document["CityObjects"].values():  # objects, not faces
+        for object_id, city_object in document["CityObjects"].items():  # objects, not faces
             kind = city_object.get("type", "")
             role = "building" if kind in BUILDING_TYPES else "terrain" if kind in TERRAIN_TYPES else None
             geometries = city_object.get("geometry") or []
@@ -158,11 +162,14 @@ def read_cityjson(path: "str | os.PathLike[str]", is_cancelled: Optional[Callabl
             for geometry in geometries:
                 if geometry.get("type") not in SURFACE_LEVELS:  # templates, points, lines
                     left_out[f"{kind} {geometry.get('type')}"] += 1
+            parents = city_object.get("parents")
+            if role == "building" and parents and isinstance(parents, list):
+                parent_of[object_id] = str(parents[0])
             if with_surfaces:
                 levels = [_lod(g) for g in with_surfaces]
                 level = wanted if wanted in levels else max(levels)
                 with_wanted += level == wanted
-                chosen[role].extend((*own, g) for g, at in zip(with_surfaces, levels) if at == level)
+                chosen[role].extend((*own, g, object_id) for g, at in zip(with_surfaces, levels) if at == level)
         first_vertex += own[1]
     vertices = np.concatenate(vertices)
     if len(vertices) == 0:
@@ -178,8 +185,14 @@ def read_cityjson(path: "str | os.PathLike[str]", is_cancelled: Optional[Callabl
         warnings.append(f"{os.path.basename(path)}: left out geometries that are not building or terrain "
                         f"surfaces: {listed}.")
     check_cancel(is_cancelled)
-    buildings, terrain = (_triangles(vertices, chosen[role], path, is_cancelled) if chosen[role] else None
-                          for role in ("building", "terrain"))
+    buildings = terrain = None
+    if chosen["building"]:
+        # Each face's building: a part's or an installation's is the building it is part of.
+        root = [_root(object_id, parent_of) for *_, object_id in chosen["building"]]
+        ids, owner = np.unique(np.array(root, dtype=object), return_inverse=True)
+        buildings = _triangles(vertices, chosen["building"], path, is_cancelled, owner, tuple(ids))
+    if chosen["terrain"]:
+        terrain = _triangles(vertices, chosen["terrain"], path, is_cancelled)
     crs = _reference_system(header.get("metadata") or {}, path, warnings)
     for part in (buildings, terrain):
         warnings += part.warnings if part is not None else []
@@ -246,15 +259,26 @@ def _lod(geometry: dict) -> tuple:
         return (0,)
 
 
+def _root(object_id: str, parent_of: dict) -> str:
+    """The building an object is part of: its parent's, up to an object without one."""
+    seen = {object_id}
+    while object_id in parent_of and parent_of[object_id] not in seen:
+        object_id = parent_of[object_id]
+        seen.add(object_id)
+    return object_id
+
+
 def _triangles(vertices: np.ndarray, geometries: list, path: str,
-               is_cancelled: Optional[Callable[[], bool]]) -> Triangles:
-    """The polygons of ``geometries`` (each with its document's first vertex and number of
-    vertices) as cleaned triangles of ``vertices``."""
+               is_cancelled: Optional[Callable[[], bool]], owner: Optional[np.ndarray] = None,
+               owner_ids: tuple = ()) -> Triangles:
+    """The polygons of ``geometries`` (each with its document's first vertex, number of
+    vertices and object) as cleaned triangles of ``vertices``; ``owner``, the
+    index of each geometry's building in ``owner_ids``, passed on to its triangles."""
     surfaces: list = []
     surface_counts = np.empty(len(geometries), dtype=np.int64)
-    first_vertex, document_size = np.array([(first, size) for first, size, _ in geometries], dtype=np.int64).T
+    first_vertex, document_size = np.array([(first, size) for first, size, *_ in geometries], dtype=np.int64).T
     try:
-        for n, (_, _, geometry) in enumerate(geometries):
+        for n, (_, _, geometry, _) in enumerate(geometries):
             boundaries = geometry["boundaries"]
             for _ in range(SURFACE_LEVELS[geometry["type"]]):
                 boundaries = list(chain.from_iterable(boundaries))
@@ -275,10 +299,11 @@ def _triangles(vertices: np.ndarray, geometries: list, path: str,
                             f"{int(document_size[of_geometry[outside[0]]])} vertices; the file is damaged.")
     index = index + first_vertex[of_geometry]
     check_cancel(is_cancelled)
-    all_vertices, faces = triangulate_polygons(vertices, index, ring_sizes, ring_counts)
+    all_vertices, faces, polygon = triangulate_polygons(vertices, index, ring_sizes, ring_counts)
     if len(faces) == 0:
         raise UrbanvoxError(f"{path}: no surface has an area (every polygon is degenerate).")
-    return clean_triangles(all_vertices, faces, path, is_cancelled)
+    face_owner = None if owner is None else np.repeat(owner, surface_counts).take(polygon)
+    return clean_triangles(all_vertices, faces, path, is_cancelled, face_owner, owner_ids)
 
 
 def _reference_system(metadata: dict, path: str, warnings: list):

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass, field
-from typing import Callable, List, Optional, Tuple
+from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 import scipy.sparse
@@ -64,12 +64,20 @@ class Triangles:
         Triangles removed as degenerate (repeated vertex, zero area) or non-finite.
     warnings : list of str
         Things the user should know but that do not stop the run.
+    owner : numpy.ndarray or None
+        (F,) for each face, the object of the input it belongs to, as an index
+        into ``owner_ids`` (a CityJSON file's buildings); None for a mesh file,
+        whose objects are not told apart.
+    owner_ids : tuple of str
+        The objects' identifiers.
     """
 
     vertices: np.ndarray
     faces: np.ndarray
     n_dropped: int = 0
     warnings: List[str] = field(default_factory=list)
+    owner: Optional[np.ndarray] = None
+    owner_ids: Tuple[str, ...] = ()
 
     def corners(self) -> np.ndarray:
         """(F, 3, 3) corner coordinates: ``corners()[f, i]`` is vertex ``i`` of face ``f``."""
@@ -164,10 +172,12 @@ def read_triangles(path: "str | os.PathLike[str]", is_cancelled: Optional[Callab
 
 
 def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
-                    is_cancelled: Optional[Callable[[], bool]] = None) -> Triangles:
+                    is_cancelled: Optional[Callable[[], bool]] = None,
+                    owner: Optional[np.ndarray] = None, owner_ids: Sequence[str] = ()) -> Triangles:
     """The triangles ``faces`` of ``vertices`` read from ``path``, cleaned for
     sampling as :func:`read_triangles` describes (also for the triangles of a
-    CityJSON file, :mod:`core.readers.cityjson`).
+    CityJSON file, :mod:`core.readers.cityjson`). ``owner`` (F,), if given,
+    is each face's object (see :class:`Triangles`): the faces kept keep theirs.
 
     Example
     -------
@@ -180,14 +190,16 @@ def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
     """
     n_in = len(faces)
     warnings: List[str] = []
+    # The input row of every face kept, for its owner.
+    row = np.arange(n_in)
 
     bad_index = (faces < 0).any(axis=1) | (faces >= len(vertices)).any(axis=1)
-    faces = faces[~bad_index]
+    faces, row = faces[~bad_index], row[~bad_index]
     # A triangle with a NaN/inf corner has no usable surface.
     bad_vertex = ~finite_rows(vertices)
     bad_face = bad_vertex[faces].any(axis=1)
     n_nonfinite = int(bad_face.sum()) + int(bad_index.sum())
-    faces = faces[~bad_face]
+    faces, row = faces[~bad_face], row[~bad_face]
     if n_nonfinite:
         warnings.append(f"dropped {n_nonfinite} triangles with non-finite or invalid vertices.")
 
@@ -208,7 +220,7 @@ def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
     longest_sq = np.max([((b - a) ** 2).sum(1), ((c - b) ** 2).sum(1), ((a - c) ** 2).sum(1)], axis=0)
     degenerate = repeated | (twice_area <= 1e-9 * longest_sq)
     n_degenerate = int(degenerate.sum())
-    faces = faces[~degenerate]
+    faces, row = faces[~degenerate], row[~degenerate]
     if n_degenerate:
         warnings.append(f"dropped {n_degenerate} degenerate (zero-area) triangles of {n_in}.")
 
@@ -218,7 +230,8 @@ def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
         first = order[starts]  # each triangle's first occurrence
         if len(first) < len(faces):
             warnings.append(f"removed {len(faces) - len(first)} duplicated triangles.")
-            faces = faces[np.sort(first)]
+            first = np.sort(first)
+            faces, row = faces[first], row[first]
 
     if len(faces) == 0:
         raise UrbanvoxError(
@@ -234,7 +247,8 @@ def clean_triangles(vertices: np.ndarray, faces: np.ndarray, path: str,
     note = _float32_precision_warning(vertices, path)
     if note:
         warnings.append(note)
-    return Triangles(vertices=vertices, faces=faces, n_dropped=n_nonfinite + n_degenerate, warnings=warnings)
+    return Triangles(vertices=vertices, faces=faces, n_dropped=n_nonfinite + n_degenerate, warnings=warnings,
+                     owner=None if owner is None else np.asarray(owner).take(row), owner_ids=tuple(owner_ids))
 
 
 def edge_counts(tris: Triangles) -> Tuple[int, int]:

@@ -39,8 +39,9 @@ from ..compat import (FLAG_ADVANCED, MULTIPOLYGON_Z, NUMBER_DOUBLE, NUMBER_INTEG
                       make_field)
 from .geometries import GeometryFeed
 
-#: Fields every block has, in this order, as (name, kind); kind is "int", "long" or "double".
-#: Further keys of the core's block rows (measures of the smoothed mesh) follow them.
+#: Fields every block has, in this order, as (name, kind); kind is "int", "long", "double" or
+#: "string". Further keys of the core's block rows (measures of the smoothed mesh, a city
+#: model's buildings) follow them.
 BLOCK_FIELDS = (
     ("block_id", "int"),
     ("height", "double"),
@@ -72,7 +73,9 @@ def field_kinds(rows):
     known = {name for name, _ in kinds}
     for name, value in rows[0].items() if rows else ():
         if name not in known:
-            kinds.append((name, "long" if isinstance(value, int) and not isinstance(value, bool) else "double"))
+            kind = ("string" if isinstance(value, str)
+                    else "long" if isinstance(value, int) and not isinstance(value, bool) else "double")
+            kinds.append((name, kind))
     return kinds
 
 
@@ -85,12 +88,14 @@ def block_fields(kinds):
 
 
 def block_attributes(row, kinds):
-    """Attribute values of a core block row as plain Python int/float (numpy scalars break GPKG
-    writes); missing or non-finite values become NULL."""
+    """Attribute values of a core block row as plain Python int/float/str (numpy scalars break
+    GPKG writes); missing or non-finite values become NULL."""
     values = []
     for name, kind in kinds:
         value = row.get(name)
-        if value is None or not math.isfinite(value):
+        if kind == "string":
+            values.append(None if value is None else str(value))
+        elif value is None or not math.isfinite(value):
             values.append(None)
         else:
             values.append(int(value) if kind != "double" else float(value))

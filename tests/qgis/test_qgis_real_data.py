@@ -4,6 +4,7 @@ Skipped when the folder is absent. Loose checks only (some blocks, finite positi
 attributes, the right CRS); the core's own tests hold the accuracy figures.
 """
 
+import json
 import math
 
 import pytest
@@ -101,6 +102,12 @@ def test_zurich_cityjson_takes_its_crs_from_the_file(qgis_app, qgis_process, sha
     check_layers(results, gpkg, "EPSG:2056")
     assert results["BLOCK_COUNT"] == 49
     assert results["TOTAL_VOLUME"] == pytest.approx(171_200, rel=0.003)
+    # Each block holds one of the file's 49 buildings, by identifier.
+    buildings = sorted(key for key, value in json.loads(path.read_text())["CityObjects"].items()
+                       if value["type"] == "Building")
+    _, features = read_layer(gpkg, "blocks")
+    assert sorted(f["buildings"] for f in features) == buildings
+    assert {f["n_buildings"] for f in features} == {1}
 
 
 def test_rotterdam_cityjson_filled_up_to_its_roofs(qgis_app, qgis_process, shared_data, tmp_path):
