@@ -113,8 +113,9 @@ def test_a_building_is_in_every_block_holding_a_quarter_of_its_plan_area():
     columns = [(1, x, y) for x in range(7) for y in range(2)] + [(2, 7, y) for y in range(2)]
     assert 1 / 8 < LEAST_SHARE
     assert block_buildings(building, np.array(columns), np.array([2, 1]), corner, 1.0) == ([(), ("b0",)], 0)
-    # In no block: counted.
+    # In no block: counted; and with no block at all.
     assert block_buildings(building, np.array([(3, 20, 20)]), np.array([3]), corner, 1.0) == ([()], 1)
+    assert block_buildings(building, np.empty((0, 3), np.int64), np.empty(0, np.int64), corner, 1.0) == ([], 1)
     # Stacked blocks 1 and 2 over all its columns, and a second building beside, in block 2 only.
     two = _roofs([((0, 0), (8, 2)), ((10, 0), (12, 2))], [0, 1])
     columns = ([(1, x, y) for x in range(8) for y in range(2)] + [(2, x, y) for x in range(12) for y in range(2)])
