@@ -232,14 +232,14 @@ class District:
 
         return X, Y, Z, C
 
-    def _part_meshes(self) -> list[tuple[Part, np.ndarray]]:
+    def part_meshes(self) -> list[tuple[Part, np.ndarray]]:
         """Per part, its triangles in world coordinates (float64, before the STL cast)."""
         off = np.array([ORIGIN[0], ORIGIN[1], 0.0])
         return [(p, part_triangles(p) + off) for p in self._parts]
 
     def write_stl(self, path) -> int:
         """Binary STL of the buildings only (float32 world coords); returns triangles."""
-        tris = np.concatenate([t for _, t in self._part_meshes()])
+        tris = np.concatenate([t for _, t in self.part_meshes()])
         return _write_binary_stl(path, tris, b"urbanvox synthetic buildings EPSG:2056")
 
     def write_ground_stl(self, path, step: float = 10.0) -> int:

@@ -25,7 +25,7 @@ def _district_as_buildings(district, path):
     """Every part of the district a Building of its own ("<truth block>/<n>"), its triangles a
     MultiSurface; the terrain a TINRelief. Returns the path and each part's identifier."""
     objects, vertices, names = {}, [], []
-    for n, (part, triangles) in enumerate(district.district._part_meshes()):
+    for n, (part, triangles) in enumerate(district.district.part_meshes()):
         name = f"{part.block}/{n}"
         first = len(vertices)
         vertices += triangles.reshape(-1, 3).tolist()

@@ -113,7 +113,7 @@ def test_single_parts_match_mesh_cut_by_terrain(district, blocks):
     """Surface above the terrain of each closed single-part mesh equals the truth."""
     n_checked = 0
     normal = np.array([-syn.TERRAIN[1], -syn.TERRAIN[2], 1.0])
-    for p, tris in district._part_meshes():
+    for p, tris in district.part_meshes():
         b = blocks[p.block]
         if b.on_border or sum(q.block == p.block for q in district._parts) > 1:
             continue
@@ -318,7 +318,7 @@ def test_stl_file(district, blocks, tmp_path):
 
 def test_stl_parts_realism(district):
     seen = set()
-    for p, tris in district._part_meshes():
+    for p, tris in district.part_meshes():
         m = trimesh.Trimesh(**trimesh.triangles.to_kwargs(tris - [ORIGIN[0], ORIGIN[1], 0]))
         assert m.is_watertight == p.floor, p
         assert m.is_winding_consistent == (p.winding != "mixed"), p
