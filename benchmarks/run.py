@@ -25,8 +25,9 @@ everything is written as JSON to ``benchmarks/results/``.
 Stage names: the pipeline's laps (``core.pipeline.reconstruct_points``) are grid, ground
 (ground level and, inside it, the voxel binning of the building points: ``voxelise``,
 timed apart on the same points), classify, blocks, eliminate (elimination), surface
-(surfaces), smooth (smoothing), project (projection), measure; read, layers and export
-are timed around them: the GIS layers' content (attribute rows and the WKB of the blocks,
+(surfaces), smooth (smoothing), project (projection), measure; read, a city model's
+buildings per block (``buildings``: CityJSON only, in triangles read), layers and export are
+timed around them: the GIS layers' content (attribute rows and the WKB of the blocks,
 footprints and ground, their faces triangulated, as the Processing algorithms write them
 before any mesh file), the end of end to end; then apart a PLY and the gmsh .msh, the
 finite-element format, as text and in binary (the mesh triangulated for the PLY serves the
@@ -218,6 +219,13 @@ def _run_once(spec: dict, params, airborne: bool):
     rss = result.stats.get("peak_rss_mb", {})
     for stage, seconds in result.timings.items():
         stages[stage] = {"s": seconds, "rss": rss.get(stage, float("nan"))}
+    if not airborne and triangles.owner is not None:
+        # A city model's buildings, block by block, as reconstruct_mesh names them.
+        from core.pipeline import name_buildings
+
+        lap = time.perf_counter()
+        name_buildings(result, triangles)
+        stages["buildings"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
     # The GIS layers' content, as the Processing algorithms write it with the
     # ground layer, before any mesh file: the attribute rows and every
     # geometry's WKB (QGIS then parses and writes them, which is not the

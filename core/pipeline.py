@@ -188,16 +188,24 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     result = reconstruct_points(ground, building, crs_obj, params, airborne=fill_under_roofs, warnings=warnings,
                                 tiles=tiles, progress=progress, is_cancelled=is_cancelled,
                                 overwrite_points=True)
-    if triangles.owner is not None:  # a city model names its buildings: which block holds which
-        corner = result.grid.offset[:2] + result.grid.origin[:2]
-        result.block_buildings, in_none = block_buildings(triangles, result.footprint_columns,
-                                                          np.asarray(result.blocks.block_id), corner,
-                                                          result.grid.voxel_size)
-        if in_none:
-            result.warnings.append(Text("{} of the city model's {} buildings are in no block (below the "
-                                        "thresholds, outside the extent, or less than a quarter of their plan "
-                                        "area in any one block).", in_none, len(triangles.owner_ids)))
+    name_buildings(result, triangles)
     return result
+
+
+def name_buildings(result: Reconstruction, triangles) -> None:
+    """Where ``triangles`` (the input's) name their buildings, as a city
+    model's do: set which block holds which (:mod:`core.block_buildings`) on
+    ``result``, and warn of the buildings in none."""
+    if triangles.owner is None:
+        return
+    corner = result.grid.offset[:2] + result.grid.origin[:2]
+    result.block_buildings, in_none = block_buildings(triangles, result.footprint_columns,
+                                                      np.asarray(result.blocks.block_id), corner,
+                                                      result.grid.voxel_size)
+    if in_none:
+        result.warnings.append(Text("{} of the city model's {} buildings are in no block (below the "
+                                    "thresholds, outside the extent, or less than a quarter of their plan "
+                                    "area in any one block).", in_none, len(triangles.owner_ids)))
 
 
 def read_surfaces(path: str | Path, crs: str | None = None, ground_path: str | Path | None = None,
