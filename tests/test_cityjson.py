@@ -335,6 +335,9 @@ def test_a_cityjson_sequence_gives_the_model_of_its_file(shared_data, tmp_path):
     from_lines, from_whole = (reconstruct_mesh(path, params=params) for path in (sequence, source))
     assert len(from_lines.blocks) == len(from_whole.blocks) == 49
     assert from_lines.blocks.volume.tolist() == from_whole.blocks.volume.tolist()
+    # The same buildings, named by the features' Building objects, in the same blocks.
+    assert lines.buildings.owner_ids == whole.buildings.owner_ids and len(whole.buildings.owner_ids) == 49
+    assert from_lines.block_buildings == from_whole.block_buildings
     # A damaged line is named.
     text = sequence.read_text().splitlines()
     (tmp_path / "damaged.jsonl").write_text("\n".join(text[:2] + ['{"type": "Feature"}'] + text[3:]))
