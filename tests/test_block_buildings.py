@@ -66,8 +66,9 @@ def test_each_block_names_the_parts_of_its_truth_block(district, tmp_path):
 
 
 def test_parts_are_named_by_their_building(tmp_path):
-    """A Building without geometry of its own and its two BuildingParts (one a part of the other),
-    and a lone BuildingInstallation: two buildings, each face owned by its root."""
+    """A Building with only a LoD 0 footprint on the ground (as 3D BAG's) and its two
+    BuildingParts (one a part of the other), and a lone BuildingInstallation: two buildings, each
+    face owned by its root; the footprint changes no block."""
     box = [[0, 0, 0], [10, 0, 0], [10, 8, 0], [0, 8, 0], [0, 0, 6], [10, 0, 6], [10, 8, 6], [0, 8, 6]]
     shell = [[[0, 3, 2, 1]], [[4, 5, 6, 7]], [[0, 1, 5, 4]], [[1, 2, 6, 5]], [[2, 3, 7, 6]], [[3, 0, 4, 7]]]
 
@@ -76,17 +77,23 @@ def test_parts_are_named_by_their_building(tmp_path):
                                                                 for face in shell]]}]
 
     vertices = box + [[x + 10, y, z] for x, y, z in box] + [[x + 40, y, z] for x, y, z in box]
-    objects = {"house": {"type": "Building", "children": ["wing"]},
+    objects = {"house": {"type": "Building", "children": ["wing"],
+                         "geometry": [{"type": "MultiSurface", "lod": "0", "boundaries": [[[0, 3, 2, 1]]]}]},
                "wing": {"type": "BuildingPart", "parents": ["house"], "children": ["annex"], "geometry": solid(0)},
                "annex": {"type": "BuildingPart", "parents": ["wing"], "geometry": solid(8)},
                "kiosk": {"type": "BuildingInstallation", "geometry": solid(16)}}
     city = read_cityjson(_write(tmp_path / "parts.city.json", objects, vertices))
     assert city.buildings.owner_ids == ("house", "kiosk")
+    # The footprint's two triangles are the wing's floor's: dropped as repeated.
     assert np.bincount(city.buildings.owner).tolist() == [24, 12]
-    result = reconstruct_mesh(tmp_path / "parts.city.json",
-                              params=ReconstructionParams(voxel_size=1.0, smoothing_iterations=0, project=False))
+    params = ReconstructionParams(voxel_size=1.0, smoothing_iterations=0, project=False)
+    result = reconstruct_mesh(tmp_path / "parts.city.json", params=params)
     assert result.block_buildings == [("house",), ("kiosk",)]
     assert not [w for w in result.warnings if "in no block" in w]
+    del objects["house"]["geometry"]
+    without = reconstruct_mesh(_write(tmp_path / "no_lod0.city.json", objects, vertices), params=params)
+    assert without.blocks.volume.tolist() == result.blocks.volume.tolist()
+    assert without.block_buildings == result.block_buildings
 
 
 def _roofs(squares, owners):
