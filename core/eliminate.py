@@ -30,8 +30,8 @@ from . import jit
 from .classify import AIR, BUILDING
 from .errors import Cancelled
 from .grid import VoxelGrid
-from .neighbours import kd_tree, nearest_within, search_tree
-from .parallel import map_blocks, row_blocks, thread_count
+from .neighbours import kd_tree, nearest_within, query_threads, search_tree
+from .parallel import map_blocks, row_blocks
 from .topology import sorted_unique
 
 #: Candidates examined per face first when the quick ball tests cannot decide
@@ -338,7 +338,8 @@ def _any_candidate(tree: cKDTree, points: np.ndarray, at: np.ndarray, rows: np.n
     """
     while len(rows):
         k = min(k, len(points))
-        _, idx = tree.query(at.take(rows, axis=0), k=k, distance_upper_bound=radius, workers=thread_count())
+        _, idx = tree.query(at.take(rows, axis=0), k=k, distance_upper_bound=radius,
+                            workers=query_threads(len(rows), k))
         idx = idx.reshape(len(rows), k)
         # Each face from its own row: blocks of rows on all cores.
         found = np.concatenate(map_blocks(lambda part: test(idx[part], rows[part]),

@@ -111,23 +111,28 @@ class _CountingTree(cKDTree):
 def test_queries_take_the_threads_they_are_given(monkeypatch):
     """A Dask worker's share of the cores (URBANVOX_THREADS), not every core;
     one thread inside the row-block pool (the MLS planes), all of them when a
-    single block runs outside it."""
+    single block runs outside it; one for a small search (scipy starts its
+    threads at every call)."""
     from core.mls import mls_planes
 
     data = np.random.default_rng(3).uniform(0, 10, (5000, 3))
     tree = _CountingTree(data)
     tree.workers = []
     monkeypatch.setenv("URBANVOX_THREADS", "1")
-    nearest(tree, data, data[:100], 5)
-    nearest_distance(data[:100] + 0.1, [tree], 1.0)
+    nearest(tree, data, data[:3000], 5)
+    nearest_distance(data[:3000] + 0.1, [tree], 1.0)
     assert tree.workers and set(tree.workers) == {1}
     monkeypatch.setenv("URBANVOX_THREADS", "3")
     tree.workers = []
-    nearest(tree, data, data[:100], 5)
+    nearest(tree, data, data[:3000], 5)  # 15,000 neighbours
     assert set(tree.workers) == {3}
+    tree.workers = []
+    nearest(tree, data, data[:100], 5)  # 500: on this thread
+    nearest_distance(data[:100] + 0.1, [tree], 1.0)
+    assert set(tree.workers) == {1}
     tree.workers = []
     mls_planes(data, tree, np.tile(data, (8, 1)), 0.5)  # 40,000 planes: several blocks, on the pool's threads
     assert set(tree.workers) == {1}
     tree.workers = []
-    mls_planes(data, tree, data[:100], 0.5)  # one block, run here
+    mls_planes(data, tree, data[:2000], 0.5)  # one block, run here
     assert set(tree.workers) == {3}
