@@ -35,8 +35,8 @@ PointSearch = Union[cKDTree, "ColumnIndex"]
 #: (:func:`query_threads`). scipy starts its threads anew at every call: 0.1-0.2 ms each on
 #: an idle machine, more than a small search gains (12 neighbours of 1,000 points: 3.0 ms on
 #: one thread, 2.8 ms on two; of 16,000: 59 and 26 ms), and milliseconds when the cores are
-#: busy (another process, QGIS, a Dask worker beside): Zurich's 49 buildings, one grid each,
-#: took 5.8 s with a test run beside them, 3.8 s on one thread.
+#: busy (another process, QGIS, a Dask worker beside): Zurich's CityJSON, one small grid per
+#: building, took 8.9-10.1 s with two other processes busy, 5.7-7.0 s so.
 SMALL_QUERY = 12_000
 
 
