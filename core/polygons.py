@@ -31,7 +31,8 @@ An L-shaped roof (concave: not a fan) and a square with a square hole:
 >>> len(all_vertices), len(faces), np.bincount(polygon).tolist()
 (14, 12, [4, 8])
 >>> corners = all_vertices[faces]
->>> float(0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1).sum())  # 6 + (9 - 1)
+>>> area = 0.5 * np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1)
+>>> float(area.sum())  # 6 + (9 - 1)
 14.0
 """
 from __future__ import annotations
