@@ -4,7 +4,6 @@ named by their building, and the share rule on hand-made columns."""
 import json
 
 import numpy as np
-import pytest
 
 from core.block_buildings import LEAST_SHARE, block_buildings
 from core.pipeline import ReconstructionParams, reconstruct_mesh
