@@ -79,7 +79,7 @@ class Reconstruction:
         the voxel model (§3); ``mesh_volume``, ``mesh_area``, ``roof_area``,
         ``facade_area``, the qualities and the distances are of the final
         smoothed, projected mesh (§4). Lengths in metres. Where the input names
-        its buildings (:attr:`block_buildings`), ``buildings`` (their
+        its buildings (:attr:`block_buildings`), ``building_ids`` (their
         identifiers, separated by ``;``) and ``n_buildings`` follow.
         """
         m = self.metres_per_unit
@@ -109,7 +109,7 @@ class Reconstruction:
                 "max_dist": _plain(me.max_dist[index] * m),
             })
             if self.block_buildings is not None:
-                rows[-1]["buildings"] = ";".join(self.block_buildings[b])
+                rows[-1]["building_ids"] = ";".join(self.block_buildings[b])
                 rows[-1]["n_buildings"] = len(self.block_buildings[b])
         return rows
 

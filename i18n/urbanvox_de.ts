@@ -236,8 +236,8 @@
       <translation>&lt;p&gt;Die Daten werden in ein Gitter würfelförmiger Voxel gelegt; die Voxel werden in Boden, Gebäude und Luft eingeteilt (die Luft wird von oben geflutet, so werden geschlossene Innenhöfe und innere Flächen behandelt); über Flächen verbundene Gebäudevoxel bilden einen Block. Blöcke unter den Schwellenwerten werden verworfen.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Voxelgröße&lt;/b&gt;: Kante eines Voxels in Metern; eine Halbierung vervielfacht Speicher und Zeit um ~8.&lt;br&gt;&lt;b&gt;Minimale Höhe / Grundfläche / Volumen&lt;/b&gt;: Blöcke unter einem davon werden verworfen.&lt;br&gt;&lt;b&gt;Glättungsdurchgänge&lt;/b&gt;: Catmull-Clark nur über die Knoten (Artikel: 3); Knoten am Fuß der Wände behalten ihre Höhe. &lt;b&gt;Projizieren&lt;/b&gt;: die geglätteten Knoten auf gleitende Kleinste-Quadrate-Ebenen der Daten verschieben. &lt;b&gt;Minimale Flächenqualität&lt;/b&gt;: ein Schritt, der eine schlechtere Fläche hinterließe, wird abgelehnt (eine Voxelfläche hat 0,72).&lt;br&gt;&lt;b&gt;Gebietsausdehnung&lt;/b&gt;: schneidet die Daten zu; Blöcke über den Rand werden an seinen Seiten geschlossen.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Blöcke&lt;/b&gt;: ein MultiPolygonZ je Block, seine geschlossene Außenfläche (geglättet und projiziert). &lt;b&gt;Grundrisse&lt;/b&gt;: ein Polygon je Block (die Spalten, die er bedeckt). Beide haben die Felder block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) und n_voxels des Voxelmodells, dann mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist und max_dist (m, Knoten zu den Daten) des endgültigen Netzes. &lt;b&gt;Geländeoberfläche&lt;/b&gt;: das Gelände, in Kacheln. &lt;b&gt;Netzdatei&lt;/b&gt;: geschlossene, konforme Oberflächen jedes Blocks, des Bodens und der Luft; die Endung wählt das Format (.msh mit physikalischen Gruppen je Grenzfläche und je Region, .vtu, .obj, .stl, .ply); daneben wird ein PNG-Vorschaubild geschrieben.&lt;/p&gt;</translation>
     </message>
     <message>
-      <source>&lt;p&gt;From a CityJSON file, both layers also have the fields buildings, the identifiers of the buildings each block holds, separated by ';' (a BuildingPart counts as its Building; a building is in every block that covers a quarter of its plan area or more), and n_buildings.&lt;/p&gt;</source>
-      <translation>&lt;p&gt;Aus einer CityJSON-Datei haben beide Layer auch die Felder buildings, die Kennungen der Gebäude, die jeder Block enthält, getrennt durch „;“ (ein BuildingPart zählt als sein Building; ein Gebäude gehört zu jedem Block, der mindestens ein Viertel seiner Grundrissfläche deckt), und n_buildings.&lt;/p&gt;</translation>
+      <source>&lt;p&gt;From a CityJSON file, both layers also have the fields building_ids, the identifiers of the buildings each block holds, separated by ';' (a BuildingPart counts as its Building; a building is in every block that covers a quarter of its plan area or more), and n_buildings.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Aus einer CityJSON-Datei haben beide Layer auch die Felder building_ids, die Kennungen der Gebäude, die jeder Block enthält, getrennt durch „;“ (ein BuildingPart zählt als sein Building; ein Gebäude gehört zu jedem Block, der mindestens ein Viertel seiner Grundrissfläche deckt), und n_buildings.&lt;/p&gt;</translation>
     </message>
     <message>
       <source>voxel,building,block,urban,city,3d,finite element,cfd,mesh,gmsh,catmull-clark</source>
@@ -340,16 +340,16 @@
       <translation>{} Blöcke</translation>
     </message>
     <message>
+      <source>{} of the city model's {} buildings are in no block (below the thresholds, outside the extent, or less than a quarter of their plan area in any one block).</source>
+      <translation>{} der {} Gebäude des Stadtmodells liegen in keinem Block (unter den Schwellen, außerhalb der Ausdehnung oder mit weniger als einem Viertel ihrer Grundrissfläche in einem Block).</translation>
+    </message>
+    <message>
       <source>Dropped {} blocks below the thresholds (height {:g} m, footprint {:g} m², volume {:g} m³).</source>
       <translation>{} Blöcke unter den Schwellen verworfen (Höhe {:g} m, Grundfläche {:g} m², Volumen {:g} m³).</translation>
     </message>
     <message>
       <source>Smoothing ({} passes)</source>
       <translation>Glättung ({} Durchgänge)</translation>
-    </message>
-    <message>
-      <source>{} of the city model's {} buildings are in no block (below the thresholds, outside the extent, or less than a quarter of their plan area in any one block).</source>
-      <translation>{} der {} Gebäude des Stadtmodells liegen in keinem Block (unter den Schwellen, außerhalb der Ausdehnung oder mit weniger als einem Viertel ihrer Grundrissfläche in einem Block).</translation>
     </message>
     <message>
       <source>Filled {} roof-hole columns ({:.0f} m²) with no return under them.</source>

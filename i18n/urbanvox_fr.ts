@@ -236,8 +236,8 @@
       <translation>&lt;p&gt;Les données sont placées dans une grille de voxels cubiques ; les voxels sont classés en sol, bâtiment et air (l'air est propagé depuis le haut, ce qui traite les cours fermées et les surfaces intérieures) ; les voxels de bâtiment reliés par une face forment un îlot. Les îlots plus bas, plus petits ou plus légers que les seuils sont supprimés.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Taille des voxels&lt;/b&gt; : arête d'un voxel en mètres ; la diviser par deux multiplie mémoire et temps par ~8.&lt;br&gt;&lt;b&gt;Hauteur / emprise / volume minimaux&lt;/b&gt; : les îlots en dessous de l'un d'eux sont écartés.&lt;br&gt;&lt;b&gt;Passes de lissage&lt;/b&gt; : passes de Catmull-Clark sur les sommets seulement (article : 3) ; les nœuds au pied des murs gardent leur altitude. &lt;b&gt;Projeter&lt;/b&gt; : déplacer les nœuds lissés sur des plans des moindres carrés mobiles des données. &lt;b&gt;Qualité minimale des faces&lt;/b&gt; : un déplacement qui laisserait une face moins bonne est refusé (une face de voxel vaut 0,72).&lt;br&gt;&lt;b&gt;Emprise du domaine&lt;/b&gt; : découpe les données ; les îlots qui la franchissent sont fermés sur ses côtés.&lt;/p&gt;&lt;p&gt;&lt;b&gt;Îlots&lt;/b&gt; : un MultiPolygonZ par îlot, sa surface extérieure fermée (lissée et projetée). &lt;b&gt;Emprises&lt;/b&gt; : un polygone par îlot (les colonnes qu'il couvre). Les deux ont les champs block_id, height, ground_z, top_z, footprint_area (m²), volume (m³), surface_area (m²) et n_voxels du modèle voxel, puis mesh_volume, mesh_area, roof_area, facade_area, min_quality, mean_quality, mean_dist et max_dist (m, des nœuds aux données) du maillage final. &lt;b&gt;Surface du sol&lt;/b&gt; : le terrain, par tuiles. &lt;b&gt;Fichier de maillage&lt;/b&gt; : surfaces fermées et conformes de chaque îlot, du sol et de l'air ; l'extension choisit le format (.msh avec groupes physiques par interface et par région, .vtu, .obj, .stl, .ply) ; un aperçu PNG est écrit à côté.&lt;/p&gt;</translation>
     </message>
     <message>
-      <source>&lt;p&gt;From a CityJSON file, both layers also have the fields buildings, the identifiers of the buildings each block holds, separated by ';' (a BuildingPart counts as its Building; a building is in every block that covers a quarter of its plan area or more), and n_buildings.&lt;/p&gt;</source>
-      <translation>&lt;p&gt;Depuis un fichier CityJSON, les deux couches ont aussi les champs buildings, les identifiants des bâtiments que contient chaque îlot, séparés par « ; » (une BuildingPart compte pour son Building ; un bâtiment est dans chaque îlot qui couvre au moins le quart de sa surface en plan), et n_buildings.&lt;/p&gt;</translation>
+      <source>&lt;p&gt;From a CityJSON file, both layers also have the fields building_ids, the identifiers of the buildings each block holds, separated by ';' (a BuildingPart counts as its Building; a building is in every block that covers a quarter of its plan area or more), and n_buildings.&lt;/p&gt;</source>
+      <translation>&lt;p&gt;Depuis un fichier CityJSON, les deux couches ont aussi les champs building_ids, les identifiants des bâtiments que contient chaque îlot, séparés par « ; » (une BuildingPart compte pour son Building ; un bâtiment est dans chaque îlot qui couvre au moins le quart de sa surface en plan), et n_buildings.&lt;/p&gt;</translation>
     </message>
     <message>
       <source>voxel,building,block,urban,city,3d,finite element,cfd,mesh,gmsh,catmull-clark</source>
@@ -340,16 +340,16 @@
       <translation>{} îlots</translation>
     </message>
     <message>
+      <source>{} of the city model's {} buildings are in no block (below the thresholds, outside the extent, or less than a quarter of their plan area in any one block).</source>
+      <translation>{} des {} bâtiments du modèle de ville ne sont dans aucun îlot (sous les seuils, hors de l'emprise, ou moins du quart de leur surface en plan dans un même îlot).</translation>
+    </message>
+    <message>
       <source>Dropped {} blocks below the thresholds (height {:g} m, footprint {:g} m², volume {:g} m³).</source>
       <translation>{} îlots sous les seuils écartés (hauteur {:g} m, emprise {:g} m², volume {:g} m³).</translation>
     </message>
     <message>
       <source>Smoothing ({} passes)</source>
       <translation>Lissage ({} passes)</translation>
-    </message>
-    <message>
-      <source>{} of the city model's {} buildings are in no block (below the thresholds, outside the extent, or less than a quarter of their plan area in any one block).</source>
-      <translation>{} des {} bâtiments du modèle de ville ne sont dans aucun îlot (sous les seuils, hors de l'emprise, ou moins du quart de leur surface en plan dans un même îlot).</translation>
     </message>
     <message>
       <source>Filled {} roof-hole columns ({:.0f} m²) with no return under them.</source>

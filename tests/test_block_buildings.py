@@ -55,7 +55,7 @@ def test_each_block_names_the_parts_of_its_truth_block(district, tmp_path):
     assert sorted(map(sorted, held)) == sorted(sorted(truth[name]) for name in kept)
     rows = result.block_rows()
     assert [row["n_buildings"] for row in rows] == [len(ids) for ids in held]
-    assert all(row["buildings"] == ";".join(sorted(ids)) for row, ids in zip(rows, held))
+    assert all(row["building_ids"] == ";".join(sorted(ids)) for row, ids in zip(rows, held))
     dropped = sum(len(truth[b.name]) for b in district.blocks if b.below_thresholds)
     assert dropped > 0
     assert f"{dropped} of the city model's {len(names)} buildings are in no block" in " ".join(result.warnings)
@@ -139,7 +139,7 @@ def test_an_stl_gives_no_building_fields(district):
     params = ReconstructionParams(voxel_size=2.0, smoothing_iterations=0, project=False)
     result = reconstruct_mesh(district.stl, crs=district.crs, params=params)
     assert result.block_buildings is None
-    assert "buildings" not in result.block_rows()[0]
+    assert "building_ids" not in result.block_rows()[0] and "n_buildings" not in result.block_rows()[0]
 
 
 def test_zurich_and_den_haag_buildings_are_one_per_block(shared_data):

@@ -42,7 +42,7 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
             "<b>Fill every column up to its roof</b> [advanced]: for models whose walls are missing, which "
             "the air fills (the run warns of hollow blocks).</p>"
         ) + self.tr(self.COMMON_HELP) + self.tr(
-            "<p>From a CityJSON file, both layers also have the fields buildings, the identifiers of the "
+            "<p>From a CityJSON file, both layers also have the fields building_ids, the identifiers of the "
             "buildings each block holds, separated by ';' (a BuildingPart counts as its Building; a building "
             "is in every block that covers a quarter of its plan area or more), and n_buildings.</p>"
         ) + self.helpLink()

@@ -166,7 +166,7 @@ def test_a_cityjson_building_at_the_level_of_detail_asked_for(processing, tmp_pa
         _, blocks = read_layer(gpkg, "blocks")
         heights[lod] = blocks[0]["height"]
         # The building each block holds, by its CityJSON identifier (a text field).
-        assert (blocks[0]["buildings"], blocks[0]["n_buildings"]) == ("b", 1)
+        assert (blocks[0]["building_ids"], blocks[0]["n_buildings"]) == ("b", 1)
     assert heights == {"": 9.0, "1.2": 6.0}
 
 

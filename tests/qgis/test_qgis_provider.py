@@ -148,11 +148,11 @@ def test_field_values_are_plain_python_numbers(urbanvox_plugin):
     from urbanvox.processing_provider.algorithms.base import BLOCK_FIELDS, block_attributes, field_kinds
 
     row = {name: (np.int64(3) if kind != "double" else np.float32(1.5)) for name, kind in BLOCK_FIELDS}
-    row.update(mesh_volume=2.5, max_dist=float("nan"), extra_count=7, buildings="a;b")
+    row.update(mesh_volume=2.5, max_dist=float("nan"), extra_count=7, building_ids="a;b")
     kinds = field_kinds([row])
     assert kinds[: len(BLOCK_FIELDS)] == list(BLOCK_FIELDS)
     assert kinds[len(BLOCK_FIELDS):] == [("mesh_volume", "double"), ("max_dist", "double"), ("extra_count", "long"),
-                                         ("buildings", "string")]
+                                         ("building_ids", "string")]
     values = block_attributes(row, kinds)
     assert [type(v) for v in values[: len(BLOCK_FIELDS)]] == [
         int if kind != "double" else float for _, kind in BLOCK_FIELDS

@@ -106,7 +106,7 @@ def test_zurich_cityjson_takes_its_crs_from_the_file(qgis_app, qgis_process, sha
     buildings = sorted(key for key, value in json.loads(path.read_text())["CityObjects"].items()
                        if value["type"] == "Building")
     _, features = read_layer(gpkg, "blocks")
-    assert sorted(f["buildings"] for f in features) == buildings
+    assert sorted(f["building_ids"] for f in features) == buildings
     assert {f["n_buildings"] for f in features} == {1}
 
 
