@@ -175,6 +175,9 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     missing (the air would fill them, with a warning), at the price of
     passages and overhangs. Unlike LiDAR, no roof hole is filled: a mesh has
     no missing returns, and a courtyard is air.
+
+    A CityJSON file's buildings are named per block in the result's
+    ``block_buildings`` (:func:`name_buildings`).
     """
     params = params or ReconstructionParams()
     report = _reporter(progress, is_cancelled)
