@@ -22,7 +22,8 @@ mesh files' numbers (:mod:`core.row_text_kernel`), the preview's depth buffer
 the per-block sums of the measures (:mod:`core.measure_kernel`), the
 faces each tile owns and the numbering and copying of the tiles' nodes
 and faces into one model (:mod:`core.tiles_kernel`), the
-weighted moments and least axes of the MLS planes (:mod:`core.mls_kernel`) and the
+weighted moments and least axes of the MLS planes (:mod:`core.mls_kernel`), the
+cells of a mesh's sample points (:mod:`core.sampling_kernel`) and the
 reader's sorting of a LAS chunk's points (:mod:`core.las_kernel`).
 One more compiled module is no kernel: the allocator of numpy's large
 arrays on a host's threads (:mod:`core.array_heap_kernel`), without a numpy
@@ -62,7 +63,7 @@ from .errors import Cancelled
 KERNELS = ("las_kernel", "array_heap_kernel", "blocks_kernel", "classify_kernel", "crossing_kernel", "export_kernel",
            "grid_kernel", "ground_kernel", "manifold_kernel", "measure_kernel", "mls_kernel", "neighbours_kernel",
            "normals_kernel", "preview_kernel", "projection_kernel", "quality_kernel", "row_text_kernel",
-           "smooth_kernel", "support_kernel", "surface_kernel", "tiles_kernel", "topology_kernel")
+           "sampling_kernel", "smooth_kernel", "support_kernel", "surface_kernel", "tiles_kernel", "topology_kernel")
 
 #: Elements (points, quads, nodes) from which a kernel is loaded for a call (:func:`kernels`).
 WORTHWHILE = 1_000_000

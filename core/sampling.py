@@ -29,6 +29,7 @@ from typing import Callable, Iterator
 
 import numpy as np
 
+from . import jit
 from .errors import Cancelled, UrbanvoxError
 from .topology import run_starts, sorted_unique
 
@@ -202,18 +203,32 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
 
 
 def _cell_means(points: np.ndarray, cell: float, low: np.ndarray):
-    # One coordinate at a time (no (N, 3) temporaries).
-    ijk = [np.floor(points[:, c] / cell).astype(np.int64) - low[c] for c in range(3)]
-    key = ijk[0] | (ijk[1] << 21) | (ijk[2] << 42)
-    del ijk
+    """The cells of ``points`` (sorted numbers), and the sums of the coordinates
+    and the numbers of the points in each."""
     # Points sampled along a triangle's rows fall in the same cell several
     # times in a row (5.4 on average on the Zurich mesh at 0.5 m): only the
     # runs' keys are sorted (a stable sort, which takes runs fast), and the
     # runs then hand their number to their points. The same cells and
     # inverse as np.unique(key, return_inverse=True), 2.4 times faster.
-    starts = np.flatnonzero(run_starts(key))
-    unique, run_inverse = sorted_unique(key[starts], return_inverse=True)
-    inverse = np.repeat(run_inverse, np.diff(np.append(starts, len(key))))
+    # Compiled, the keys and their runs in one pass, the sums in another
+    # (core.sampling_kernel): the same numbers.
+    found = jit.run("sampling_kernel", "cell_runs", points, cell, low, size=len(points))
+    if found is not None:
+        run_keys, starts = found
+    else:
+        # One coordinate at a time (no (N, 3) temporaries).
+        ijk = [np.floor(points[:, c] / cell).astype(np.int64) - low[c] for c in range(3)]
+        key = ijk[0] | (ijk[1] << 21) | (ijk[2] << 42)
+        del ijk
+        starts = np.flatnonzero(run_starts(key))
+        run_keys = key[starts]
+        del key
+    unique, run_inverse = sorted_unique(run_keys, return_inverse=True)
+    found = jit.run("sampling_kernel", "run_sums", points, starts, run_inverse, len(unique), size=len(points))
+    if found is not None:
+        sums, counts = found
+        return unique, sums, counts
+    inverse = np.repeat(run_inverse, np.diff(np.append(starts, len(points))))
     counts = np.bincount(inverse).astype(np.float64)
     sums = np.column_stack([np.bincount(inverse, weights=points[:, c]) for c in range(3)])
     return unique, sums, counts
