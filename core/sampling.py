@@ -189,10 +189,13 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
     if np.any(span >= 2**21):
         raise UrbanvoxError(f"The mesh spans more than {2**21 * cell:.0f} units: split it into tiles.")
     parts = []
+    # The work is all the samples, however the chunks cut it: the compiled
+    # pass (core.jit) loads for many samples from the first chunk on.
+    work = estimate_sample_count(corners, spacing)
     for chunk in iter_sample_triangles(corners, spacing, chunk_points):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        parts.append(_cell_means(chunk, cell, low))
+        parts.append(_cell_means(chunk, cell, low, work))
     keys = np.concatenate([p[0] for p in parts])
     sums = np.concatenate([p[1] for p in parts])
     counts = np.concatenate([p[2] for p in parts])
@@ -202,9 +205,10 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
     return merged / total[:, None]
 
 
-def _cell_means(points: np.ndarray, cell: float, low: np.ndarray):
+def _cell_means(points: np.ndarray, cell: float, low: np.ndarray, work: int):
     """The cells of ``points`` (sorted numbers), and the sums of the coordinates
-    and the numbers of the points in each."""
+    and the numbers of the points in each; ``work``, the samples of the whole
+    sampling (:func:`core.jit.kernels`)."""
     # Points sampled along a triangle's rows fall in the same cell several
     # times in a row (5.4 on average on the Zurich mesh at 0.5 m): only the
     # runs' keys are sorted (a stable sort, which takes runs fast), and the
@@ -212,7 +216,7 @@ def _cell_means(points: np.ndarray, cell: float, low: np.ndarray):
     # inverse as np.unique(key, return_inverse=True), 2.4 times faster.
     # Compiled, the keys and their runs in one pass, the sums in another
     # (core.sampling_kernel): the same numbers.
-    found = jit.run("sampling_kernel", "cell_runs", points, cell, low, size=len(points))
+    found = jit.run("sampling_kernel", "cell_runs", points, cell, low, size=work)
     if found is not None:
         run_keys, starts = found
     else:
@@ -224,7 +228,7 @@ def _cell_means(points: np.ndarray, cell: float, low: np.ndarray):
         run_keys = key[starts]
         del key
     unique, run_inverse = sorted_unique(run_keys, return_inverse=True)
-    found = jit.run("sampling_kernel", "run_sums", points, starts, run_inverse, len(unique), size=len(points))
+    found = jit.run("sampling_kernel", "run_sums", points, starts, run_inverse, len(unique), size=work)
     if found is not None:
         sums, counts = found
         return unique, sums, counts

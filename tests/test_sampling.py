@@ -176,7 +176,7 @@ def test_cell_means_match_np_unique_with_runs_and_without():
         key = ijk[:, 0] | (ijk[:, 1] << 21) | (ijk[:, 2] << 42)
         unique, inverse = np.unique(key, return_inverse=True)
         sums = np.column_stack([np.bincount(inverse, weights=points[:, c]) for c in range(3)])
-        got_unique, got_sums, got_counts = _cell_means(points, cell, low)
+        got_unique, got_sums, got_counts = _cell_means(points, cell, low, len(points))
         assert np.array_equal(got_unique, unique)
         assert np.array_equal(got_counts, np.bincount(inverse).astype(float))
         assert np.array_equal(got_sums, sums)
