@@ -38,6 +38,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .footprint import block_positions
+
 if TYPE_CHECKING:  # core.readers imports laspy: only where a file is read
     from .readers.mesh import Triangles
 
@@ -87,10 +89,7 @@ def block_buildings(triangles: Triangles, footprint_columns: np.ndarray, block_i
     total = np.bincount(owner, weights=weight, minlength=n_buildings)
 
     face, block = _faces_in_blocks(corners.mean(axis=1)[:, :2], footprint_columns, corner, size)
-    position = np.full(int(max(block_ids.max(initial=0), footprint_columns[:, 0].max(initial=0))) + 1, -1,
-                       dtype=np.int64)
-    position[block_ids] = np.arange(len(block_ids))
-    block = position.take(block)
+    block = block_positions(block, block_ids)
     face, block = face.compress(block >= 0), block.compress(block >= 0)
     # The plan area of every (building, block) pair, summed.
     pair, inverse = np.unique(owner.take(face) * len(block_ids) + block, return_inverse=True)

@@ -60,9 +60,8 @@ def column_outlines(columns: np.ndarray, block_ids: np.ndarray, corner: np.ndarr
     import shapely
 
     columns = np.asarray(columns).reshape(-1, 3)
-    position = np.full(int(max(block_ids.max(initial=0), columns[:, 0].max(initial=0))) + 1, -1, np.int64)
-    position[block_ids] = np.arange(len(block_ids))
-    block, i, j = position[columns[:, 0]], columns[:, 1].astype(np.int64), columns[:, 2].astype(np.int64)
+    block = block_positions(columns[:, 0], block_ids)
+    i, j = columns[:, 1].astype(np.int64), columns[:, 2].astype(np.int64)
     keep = block >= 0
     block, i, j = block[keep], i[keep], j[keep]
     if len(block) == 0:  # no block, or none with a column (all dropped by the thresholds)
@@ -111,3 +110,19 @@ def column_outlines(columns: np.ndarray, block_ids: np.ndarray, corner: np.ndarr
         outlines[index] = max(outlines[index].geoms, key=lambda part: part.area)
     outlines[shapely.is_missing(outlines)] = shapely.Polygon()
     return outlines
+
+
+def block_positions(ids: np.ndarray, block_ids: np.ndarray) -> np.ndarray:
+    """The place of each block id of ``ids`` in ``block_ids`` (the blocks in
+    the order of a result), -1 for one that is not there (a dropped block).
+
+    Examples
+    --------
+    >>> block_positions(np.array([7, 3, 5, 7]), np.array([3, 7])).tolist()
+    [1, 0, -1, 1]
+    """
+    ids = np.asarray(ids, dtype=np.int64)
+    block_ids = np.asarray(block_ids, dtype=np.int64)
+    position = np.full(int(max(block_ids.max(initial=0), ids.max(initial=0))) + 1, -1, np.int64)
+    position[block_ids] = np.arange(len(block_ids))
+    return position.take(ids)
