@@ -55,6 +55,10 @@ def print_case(name: str, voxel: float, r: dict) -> None:
         cores = r["e2e_cpu_s"] / r["e2e_s"] if r["e2e_s"] > 0 else float("nan")
         print(f"  end to end: {r['e2e_cpu_s']:.2f} s of CPU time over {r['e2e_s']:.2f} s, "
               f"{cores:.2f} cores busy on average of the machine's {r.get('cpus', '?')}")
+    track = r.get("progress")
+    if track:
+        print(f"  progress bar: {track['updates']} updates, the longest wait {track['longest_wait_s']:.2f} s "
+              f"(at \"{track['waiting_at']}\"), at most {100 * track['most_off']:.0f} % of the run off its time")
     print(f"  {'stage':<16} {'seconds':>8} {'rate':>9} {'per s':<7} {'peak RSS MB':>11}")
     for stage in STAGES:
         if stage not in r["stages"]:

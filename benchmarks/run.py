@@ -213,9 +213,12 @@ def _run_once(spec: dict, params, airborne: bool):
     lap = time.perf_counter()
     # As reconstruct_point_cloud runs it: the points read are the run's to move in place
     # (the mesh case keeps its sampled points for the baselines: a copy more than reconstruct_mesh).
+    marks: list[tuple[float, float, str]] = []  # the progress bar as QGIS would show it
     result = reconstruct_points(ground, building, crs, params, airborne=airborne, warnings=warnings,
-                                overwrite_points=airborne)
+                                overwrite_points=airborne,
+                                progress=lambda f, m: marks.append((time.perf_counter(), f, str(m))))
     pipeline_s = time.perf_counter() - lap
+    report["progress"] = progress_track(marks, lap, lap + pipeline_s)
     rss = result.stats.get("peak_rss_mb", {})
     for stage, seconds in result.timings.items():
         stages[stage] = {"s": seconds, "rss": rss.get(stage, float("nan"))}
@@ -259,6 +262,26 @@ def _run_once(spec: dict, params, airborne: bool):
     report["clusters"] = int(result.stats.get("clusters", 1))
     report["warnings"] = result.warnings
     return report, result, ground, building, crs
+
+
+def progress_track(marks: list[tuple[float, float, str]], start: float, end: float) -> dict:
+    """How well a run's progress bar follows its time: the longest wait between
+    two updates (and the message shown meanwhile), and the largest distance
+    between the bar and the share of the time gone, just before each update.
+
+    Examples
+    --------
+    >>> progress_track([(1.0, 0.5, "half"), (3.0, 1.0, "done")], 0.0, 4.0)
+    {'updates': 2, 'longest_wait_s': 2.0, 'waiting_at': 'half', 'most_off': 0.25}
+    """
+    waits, off = [], 0.0
+    bar, shown, before = 0.0, "", start
+    for when, fraction, message in marks + [(end, 1.0, "")]:
+        waits.append((when - before, shown))
+        off = max(off, abs((when - start) / (end - start) - bar))  # the bar just before this update
+        bar, shown, before = fraction, message, when
+    wait, waiting_at = max(waits)
+    return {"updates": len(marks), "longest_wait_s": wait, "waiting_at": waiting_at, "most_off": off}
 
 
 def _layers_mb(result) -> float:

@@ -77,6 +77,29 @@ class Text(str):
                                                  for part in self.parts))
 
 
+def part(progress: Progress | None, start: float, end: float, label: str | None = None) -> Progress | None:
+    """``progress`` for a part of the work that spans ``start`` to ``end`` of
+    the whole: the part reports its own fractions, 0 to 1. With a ``label``,
+    its messages say which part they are of (``Text("{}: {}", label,
+    message)``). None stays None.
+
+    Examples
+    --------
+    >>> seen = []
+    >>> planes = part(lambda f, m: seen.append((round(f, 3), m)), 0.4, 0.6, "Projecting block nodes")
+    >>> planes(0.5, "moving-least-squares planes")
+    >>> seen
+    [(0.5, 'Projecting block nodes: moving-least-squares planes')]
+    """
+    if progress is None:
+        return None
+
+    def report(fraction: float, message: str) -> None:
+        progress(start + (end - start) * min(max(fraction, 0.0), 1.0),
+                 message if label is None else Text("{}: {}", label, message))
+    return report
+
+
 def translated(message: str, translate: Callable[[str], str]) -> str:
     """``message`` in the language of ``translate`` (a function from an English
     text to its translation, the text itself when it has none): a :class:`Text`

@@ -166,7 +166,8 @@ def sample_triangles(corners: np.ndarray, spacing: float, chunk_points: int = 5_
 
 def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
                    is_cancelled: Callable[[], bool] | None = None,
-                   chunk_points: int = 5_000_000) -> np.ndarray:
+                   chunk_points: int = 5_000_000,
+                   progress: Callable[[float, str], None] | None = None) -> np.ndarray:
     """Sample triangles, keeping one point (the mean) per occupied ``cell`` cube.
 
     The cubes lie on the world lattice of multiples of ``cell``; when ``cell``
@@ -174,6 +175,8 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
     inside one voxel, so the voxel occupancy is exactly that of the full
     sample, at a fraction of its memory: the full sample of a city mesh at
     10 % of a voxel is tens of millions of points, held here one chunk at a time.
+    ``progress(fraction, message)`` is told the share of the samples made
+    after each chunk.
 
     Examples
     --------
@@ -192,10 +195,14 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
     # The work is all the samples, however the chunks cut it: the compiled
     # pass (core.jit) loads for many samples from the first chunk on.
     work = estimate_sample_count(corners, spacing)
+    done = 0
     for chunk in iter_sample_triangles(corners, spacing, chunk_points):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         parts.append(_cell_means(chunk, cell, low, work))
+        done += len(chunk)
+        if progress is not None:
+            progress(done / work, "Sampling triangles")
     keys = np.concatenate([p[0] for p in parts])
     sums = np.concatenate([p[1] for p in parts])
     counts = np.concatenate([p[2] for p in parts])

@@ -332,6 +332,10 @@
       <translation>Konforme Flächen</translation>
     </message>
     <message>
+      <source>Measuring the blocks</source>
+      <translation>Blöcke werden vermessen</translation>
+    </message>
+    <message>
       <source>Projecting nodes onto the data</source>
       <translation>Knoten werden auf die Daten projiziert</translation>
     </message>
@@ -352,6 +356,10 @@
       <translation>Glättung ({} Durchgänge)</translation>
     </message>
     <message>
+      <source>Smoothing</source>
+      <translation>Glättung</translation>
+    </message>
+    <message>
       <source>Filled {} roof-hole columns ({:.0f} m²) with no return under them.</source>
       <translation>{} Dachlochsäulen ohne Rückmeldung darunter gefüllt ({:.0f} m²).</translation>
     </message>
@@ -360,12 +368,44 @@
       <translation>Über {:.0%} der Gebäudesäulen haben Luft unter einem Dach: die Flächen sind wohl nicht geschlossen (fehlende Wände lassen die Luft hinein) und die Blöcke sind hohl. FILL_UNDER_ROOFS (--fill-under-roofs) füllt jede Säule bis zu ihrem Dach.</translation>
     </message>
     <message>
+      <source>Projecting block nodes</source>
+      <translation>Knoten der Blöcke werden projiziert</translation>
+    </message>
+    <message>
+      <source>Projecting ground nodes</source>
+      <translation>Knoten des Bodens werden projiziert</translation>
+    </message>
+    <message>
       <source>Cluster {}/{}: {}</source>
       <translation>Gruppe {}/{}: {}</translation>
     </message>
     <message>
+      <source>{}: {}</source>
+      <translation>{}: {}</translation>
+    </message>
+    <message>
+      <source>nearest data points</source>
+      <translation>nächste Datenpunkte</translation>
+    </message>
+    <message>
+      <source>quality control</source>
+      <translation>Qualitätskontrolle</translation>
+    </message>
+    <message>
+      <source>face crossings</source>
+      <translation>Flächenüberschneidungen</translation>
+    </message>
+    <message>
+      <source>moving-least-squares planes</source>
+      <translation>Ebenen der gleitenden kleinsten Quadrate</translation>
+    </message>
+    <message>
       <source>No building block in the result.</source>
       <translation>Kein Gebäudeblock im Ergebnis.</translation>
+    </message>
+    <message>
+      <source>pass {} of {}</source>
+      <translation>Durchgang {} von {}</translation>
     </message>
     <message>
       <source>Tile {}/{} done</source>

@@ -332,6 +332,10 @@
       <translation>Surfaces conformes</translation>
     </message>
     <message>
+      <source>Measuring the blocks</source>
+      <translation>Mesure des îlots</translation>
+    </message>
+    <message>
       <source>Projecting nodes onto the data</source>
       <translation>Projection des nœuds sur les données</translation>
     </message>
@@ -352,6 +356,10 @@
       <translation>Lissage ({} passes)</translation>
     </message>
     <message>
+      <source>Smoothing</source>
+      <translation>Lissage</translation>
+    </message>
+    <message>
       <source>Filled {} roof-hole columns ({:.0f} m²) with no return under them.</source>
       <translation>{} colonnes de trous de toit sans retour sous elles remplies ({:.0f} m²).</translation>
     </message>
@@ -360,12 +368,44 @@
       <translation>Plus de {:.0%} des colonnes de bâti ont de l'air sous un toit : les surfaces ne sont sans doute pas fermées (des murs manquants laissent entrer l'air) et les îlots sont creux. FILL_UNDER_ROOFS (--fill-under-roofs) remplit chaque colonne jusqu'à son toit.</translation>
     </message>
     <message>
+      <source>Projecting block nodes</source>
+      <translation>Projection des nœuds des îlots</translation>
+    </message>
+    <message>
+      <source>Projecting ground nodes</source>
+      <translation>Projection des nœuds du sol</translation>
+    </message>
+    <message>
       <source>Cluster {}/{}: {}</source>
       <translation>Groupe {}/{} : {}</translation>
     </message>
     <message>
+      <source>{}: {}</source>
+      <translation>{} : {}</translation>
+    </message>
+    <message>
+      <source>nearest data points</source>
+      <translation>points de données les plus proches</translation>
+    </message>
+    <message>
+      <source>quality control</source>
+      <translation>contrôle de qualité</translation>
+    </message>
+    <message>
+      <source>face crossings</source>
+      <translation>croisements de faces</translation>
+    </message>
+    <message>
+      <source>moving-least-squares planes</source>
+      <translation>plans des moindres carrés mobiles</translation>
+    </message>
+    <message>
       <source>No building block in the result.</source>
       <translation>Aucun îlot bâti dans le résultat.</translation>
+    </message>
+    <message>
+      <source>pass {} of {}</source>
+      <translation>passe {} sur {}</translation>
     </message>
     <message>
       <source>Tile {}/{} done</source>

@@ -52,8 +52,9 @@ def collect() -> list[str]:
 def source_strings() -> list[str]:
     """The constant texts of the source that reach the translator while an algorithm runs:
     ``tr("...")`` in processing_provider/, and in core/ the messages given to ``report`` or
-    ``progress`` as constants and the templates of ``Text("...", ...)`` (core.progress: progress
-    texts and the warnings most runs give). Needs no QGIS."""
+    ``progress`` as constants, the templates of ``Text("...", ...)`` (core.progress: progress
+    texts and the warnings most runs give), the labels given to ``part`` and the parts given to
+    ``report_part`` (core.project). Needs no QGIS."""
     found: list[str] = []
     for folder, wanted in (("processing_provider", _provider_text), ("core", _progress_text)):
         for path in sorted((ROOT / folder).rglob("*.py")):
@@ -78,10 +79,13 @@ def _provider_text(call: ast.Call) -> str | None:
 
 
 def _progress_text(call: ast.Call) -> str | None:
-    if _name(call) == "Text" and call.args:
+    if _name(call) in ("Text", "report_part") and call.args:  # a template; a part of core.project's projection
         return _constant(call.args[0])
     if _name(call) in ("report", "progress") and len(call.args) >= 2:
         return _constant(call.args[1])
+    if _name(call) == "part":  # core.progress.part's label
+        label = call.args[3] if len(call.args) >= 4 else next((k.value for k in call.keywords if k.arg == "label"), None)
+        return None if label is None else _constant(label)
     return None
 
 

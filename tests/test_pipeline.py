@@ -10,7 +10,8 @@ import shapely
 from scipy.spatial import cKDTree
 
 from core.errors import Cancelled, UrbanvoxError
-from core.pipeline import ReconstructionParams, reconstruct_mesh, reconstruct_point_cloud
+from core.pipeline import (MESH_READ_SHARE, MESH_SAMPLE_SHARE, READ_SHARE, STEP_STARTS, ReconstructionParams,
+                           reconstruct_mesh, reconstruct_point_cloud)
 from core.quality import quad_quality
 from core.readers.mesh import read_triangles
 from core.sampling import sample_triangles
@@ -192,7 +193,34 @@ def test_progress_is_reported_through_every_stage(district):
                             progress=lambda f, m: seen.append((f, m)))
     fractions = [f for f, _ in seen]
     assert fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] == 1.0
-    assert len({m for _, m in seen}) >= 7
+    at = {m: f for f, m in seen}
+    # The reading has its share, then every step starts where its share of a run's time puts it.
+    assert at["Reading point cloud"] == pytest.approx(READ_SHARE)
+    for message, step in (("Ground level of every column", "ground"), ("Measuring the blocks", "measure"),
+                          ("Projecting nodes onto the data", "project_blocks")):
+        assert at[message] == pytest.approx(READ_SHARE + (1 - READ_SHARE) * STEP_STARTS[step])
+    # The long steps move the bar as they go: the smoothing pass by pass, the projection part by part.
+    assert [m for _, m in seen if m.startswith("Smoothing: ")] == [f"Smoothing: pass {k} of 3" for k in (1, 2, 3)]
+    parts = ["nearest data points", "moving-least-squares planes", "quality control", "face crossings"]
+    blocks = [m for _, m in seen if m.startswith("Projecting block nodes: ")]
+    assert sorted(set(blocks), key=blocks.index) == [f"Projecting block nodes: {p}" for p in parts]
+    ground = [m for _, m in seen if m.startswith("Projecting ground nodes: ")]
+    assert sorted(set(ground), key=ground.index) == [f"Projecting ground nodes: {p}" for p in parts[:3]]
+    projection = [f for f, m in seen if m.startswith("Projecting")]
+    assert len(set(projection)) >= 7
+
+
+def test_a_mesh_run_reports_its_reading_and_sampling_first(district):
+    """A mesh's run: reading, then sampling (buildings, then the ground mesh), then the method's steps."""
+    seen = []
+    reconstruct_mesh(district.stl, crs=district.crs, ground_path=district.ground_stl,
+                     params=ReconstructionParams(voxel_size=2.0), progress=lambda f, m: seen.append((f, m)))
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    sampling = [f for f, m in seen if m == "Sampling triangles"]
+    assert len(sampling) >= 3 and sampling[0] == MESH_READ_SHARE and sampling[-1] == pytest.approx(MESH_SAMPLE_SHARE)
+    assert next(f for f, m in seen if m == "Ground level of every column") \
+        == pytest.approx(MESH_SAMPLE_SHARE + (1 - MESH_SAMPLE_SHARE) * STEP_STARTS["ground"])
 
 
 def test_overwrite_points_moves_the_input_in_place_and_changes_no_result(district):

@@ -75,7 +75,7 @@ def test_every_text_the_source_can_show_is_translated_with_its_placeholders(lang
     collected = _i18n_script().source_strings()
     # The collector finds the kinds of texts there are: the provider's, the core's constants and templates.
     assert {"Writing the ground", "Projecting nodes onto the data", "Tile {}/{}: {}",
-            "No building block in the result."} <= set(collected)
+            "No building block in the result.", "Projecting block nodes", "face crossings"} <= set(collected)
     catalog = _catalog(language)
     missing = [text for text in collected if text not in catalog]
     assert not missing

@@ -564,3 +564,15 @@ def test_sorted_rows_give_what_numpy_unique_gives(kind):
     rows_of, inverse_of = unique_rows(rows)
     assert np.array_equal(rows_of, unique) and np.array_equal(inverse_of, inverse.reshape(-1))
     assert len(unique) < len(rows)
+
+
+def test_progress_goes_over_the_points_of_every_file(tmp_path, monkeypatch):
+    """A tile collection's reading moves the bar chunk by chunk, over all its files' points."""
+    xyz, classes = town(n=3000)
+    paths = [write_las(tmp_path / f"t{i}.laz", xyz + (100.0 * i, 0.0, 0.0), classes, crs="EPSG:28992")
+             for i in range(2)]
+    monkeypatch.setattr(las_module, "CHUNK_POINTS", 1000)
+    seen = []
+    read_point_clouds(paths, progress=lambda f, m: seen.append((f, m)))
+    assert [f for f, _ in seen] == pytest.approx([k / 6 for k in range(1, 7)])
+    assert {m for _, m in seen} == {"Reading point cloud"}

@@ -180,3 +180,16 @@ def test_cell_means_match_np_unique_with_runs_and_without():
         assert np.array_equal(got_unique, unique)
         assert np.array_equal(got_counts, np.bincount(inverse).astype(float))
         assert np.array_equal(got_sums, sums)
+
+
+def test_thinned_sampling_reports_the_share_of_samples_made():
+    from core.sampling import sample_thinned
+
+    rng = np.random.default_rng(5)
+    corners = rng.random((200, 3, 3)) * 10.0
+    total = estimate_sample_count(corners, 0.2)
+    seen = []
+    points = sample_thinned(corners, 0.2, 0.5, chunk_points=total // 7, progress=lambda f, m: seen.append(f))
+    fractions = np.array(seen)
+    assert len(fractions) >= 7 and np.all(np.diff(fractions) > 0) and fractions[-1] == pytest.approx(1.0)
+    assert np.array_equal(points, sample_thinned(corners, 0.2, 0.5, chunk_points=total // 7))

@@ -332,8 +332,10 @@ def _read_file(
     ground_rows: "_Rows",
     building_rows: "_Rows",
     is_cancelled: Optional[Callable[[], bool]],
+    chunk_read: Optional[Callable[[int], None]] = None,
 ) -> Tuple[int, int, int]:
-    """Stream one file; append kept points; return (points read, non-finite, withheld)."""
+    """Stream one file; append kept points; return (points read, non-finite, withheld).
+    ``chunk_read(n)`` is told the points of every chunk once they are kept."""
     header = reader.header
     scales = np.asarray(header.scales, dtype=np.float64)
     offsets = np.asarray(header.offsets, dtype=np.float64)
@@ -385,6 +387,8 @@ def _read_file(
                     finite = finite_rows(xyz)
                     n_bad += int((~finite).sum())
                     rows.keep_last(finite)
+            if chunk_read is not None:
+                chunk_read(len(chunk))
     except UrbanvoxError:
         raise
     except Exception as exc:  # lazrs / laspy decoding errors on truncated or corrupt data
@@ -405,6 +409,7 @@ def read_point_clouds(
     building_classes: Union[str, Sequence[int]] = (6,),
     crs: Optional[str] = None,
     is_cancelled: Optional[Callable[[], bool]] = None,
+    progress: Optional[Callable[[float, str], None]] = None,
 ) -> LabelledPoints:
     """Read ground and building points from one or several LAS/LAZ files.
 
@@ -420,6 +425,8 @@ def read_point_clouds(
         CRS parameter; overrides the headers (see :func:`core.crs.resolve_crs`).
     is_cancelled : callable, optional
         Zero-argument callable checked between chunks; True raises :class:`Cancelled`.
+    progress : callable, optional
+        ``progress(fraction, message)``, told the share of the points read after every chunk.
 
     Returns
     -------
@@ -475,12 +482,19 @@ def read_point_clouds(
     g_codes = np.asarray(ground, dtype=np.uint8)
     b_codes = np.asarray(building, dtype=np.uint8)
     n_points = n_bad = n_withheld = 0
+    done = [0]
+
+    def chunk_read(count: int) -> None:
+        done[0] += count
+        progress(done[0] / most, "Reading point cloud")
+
     for path in files:
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         with _open(path) as reader:
             n, bad, withheld = _read_file(
-                reader, path, g_codes, b_codes, counts, ground_rows, building_rows, is_cancelled
+                reader, path, g_codes, b_codes, counts, ground_rows, building_rows, is_cancelled,
+                None if progress is None else chunk_read,
             )
         if n == 0:
             raise UrbanvoxError(f"{path} contains no points (empty LAS file); remove it from the inputs.")
