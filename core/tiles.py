@@ -50,13 +50,18 @@ from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
 from .measure import BlockMeasures
 from .parallel import in_background
-from .progress import Text
+from .progress import Text, part
 from .reconstruction import NO_BLOCK, Reconstruction
 from .surface import unique_nodes
 from .tile_merge import check_copy_keys, check_merge_memory, merge_pieces, renumbered_blocks
 from .workers import TileRunner
 
 Columns = tuple[int, int, int, int]  # i0, j0, i1, j1 (half-open), global columns
+
+#: The shares of a tiled run's progress bar before the tiles (the domain's
+#: ground level, the points sorted by column) and after them (the merge):
+#: 5.8 % and 1.5 % of the 1 km synthetic city's run in 500 m tiles here.
+BEFORE_TILES, AFTER_TILES = 0.06, 0.02
 
 
 @dataclass(frozen=True)
@@ -324,6 +329,8 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
 
     start = time.perf_counter()
     progress = _monotone(progress)
+    if progress is not None:
+        progress(0.0, "Cutting the domain into tiles")
     m = metres_per_unit(crs)
     h = params.voxel_size / m
     tile, halo = options.columns(params.voxel_size)
@@ -367,7 +374,11 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     with TileRunner(options, job, reconstruct_tile) as runner:
         for n, window in enumerate(windows):
             runner.submit(n, window)
-        for piece in runner.run(is_cancelled, progress, len(cores)):
+        # Each tile's share of the bar: its share of the domain's columns (a
+        # tile's time goes with its ground as much as with its buildings).
+        areas = np.array([(i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in cores], dtype=np.float64)
+        tiles_progress = part(progress, BEFORE_TILES, 1.0 - AFTER_TILES)
+        for piece in runner.run(is_cancelled, tiles_progress, list(areas / areas.sum())):
             if piece.grow is not None:
                 regrown += 1
                 runner.submit(piece.index, piece.grow)
@@ -379,6 +390,8 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
                 check_merge_memory(done_faces, done_columns, len(done), len(cores), domain.shape, budget,
                                    params.voxel_size)
     done.sort(key=lambda p: p.index)
+    if progress is not None:
+        progress(1.0 - AFTER_TILES, "Merging the tiles")
     grid, table, surface, mesh, measures, columns = merge_pieces(done, domain, h)
     timings: dict[str, float] = {}
     for p in done:

@@ -15,7 +15,7 @@ import shutil
 import sys
 import warnings
 from contextlib import contextmanager
-from typing import TYPE_CHECKING, Callable, Iterator
+from typing import TYPE_CHECKING, Callable, Iterator, Sequence
 
 from .errors import Cancelled, UrbanvoxError
 from .heap import WORKER_ENVIRONMENT
@@ -87,17 +87,22 @@ class TileRunner:
                 warnings.filterwarnings("ignore", message="Sending large graph", category=UserWarning)
                 self.futures.append(self.client.submit(self.run_tile, job, pure=False))
 
-    def run(self, is_cancelled, progress, total: int):
-        finished = 0
+    def run(self, is_cancelled, progress, shares: "Sequence[float]"):
+        """Run the tiles queued; yield their pieces as they finish. The
+        progress bar goes by ``shares``, each tile's share of the work, by
+        index (a tile's own steps move it when the tile runs here)."""
+        total = len(shares)
+        finished, done = 0, 0.0
         while self.queue or self.futures:
             if is_cancelled is not None and is_cancelled():
                 raise Cancelled()
             if self.client is None:
                 job = self.make_job(*self.queue.pop(0))
 
-                def tile_progress(fraction: float, message: str, done: int = finished) -> None:
+                def tile_progress(fraction: float, message: str, start: float = done, share: float = shares[job.index],
+                                  n: int = finished + 1) -> None:
                     if progress is not None:
-                        progress((done + fraction) / total, Text("Tile {}/{}: {}", done + 1, total, message))
+                        progress(start + share * fraction, Text("Tile {}/{}: {}", n, total, message))
 
                 piece = self.run_tile(job, tile_progress, is_cancelled)
                 del job
@@ -114,8 +119,9 @@ class TileRunner:
                 piece = future.result()
             if piece.grow is None:
                 finished += 1
+                done += shares[piece.index]
                 if progress is not None:
-                    progress(finished / total, Text("Tile {}/{} done", finished, total))
+                    progress(done, Text("Tile {}/{} done", finished, total))
             yield piece
 
 

@@ -408,6 +408,14 @@
       <translation>Durchgang {} von {}</translation>
     </message>
     <message>
+      <source>Cutting the domain into tiles</source>
+      <translation>Das Gebiet wird in Kacheln geteilt</translation>
+    </message>
+    <message>
+      <source>Merging the tiles</source>
+      <translation>Kacheln werden zusammengeführt</translation>
+    </message>
+    <message>
       <source>Tile {}/{} done</source>
       <translation>Kachel {}/{} fertig</translation>
     </message>

@@ -408,6 +408,14 @@
       <translation>passe {} sur {}</translation>
     </message>
     <message>
+      <source>Cutting the domain into tiles</source>
+      <translation>Découpage du domaine en tuiles</translation>
+    </message>
+    <message>
+      <source>Merging the tiles</source>
+      <translation>Fusion des tuiles</translation>
+    </message>
+    <message>
       <source>Tile {}/{} done</source>
       <translation>Tuile {}/{} terminée</translation>
     </message>

@@ -143,6 +143,30 @@ def test_tiles_report_progress_in_order_and_honour_cancel(district):
                                 is_cancelled=lambda: calls.append(1) or len(calls) > 40)
 
 
+def test_the_progress_bar_gives_each_tile_its_share_of_the_domain(district):
+    """Tiles of unequal sizes move the bar by their areas, between the cutting and the merge."""
+    from core.pipeline import READ_SHARE
+    from core.tiles import AFTER_TILES, BEFORE_TILES
+
+    seen = []
+    params = ReconstructionParams(voxel_size=2.0, extent=district.district.extent)
+    result = reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=120.0),
+                                     progress=lambda f, m: seen.append((f, m)))
+
+    def bar(share: float) -> float:  # a share of the method's part of the bar (the reading has the rest)
+        return READ_SHARE + (1 - READ_SHARE) * share
+
+    at = {m: f for f, m in seen}
+    assert at["Cutting the domain into tiles"] == pytest.approx(bar(0.0))
+    assert at["Merging the tiles"] == pytest.approx(bar(1 - AFTER_TILES))
+    done = [bar(BEFORE_TILES)] + [f for f, m in seen if re.fullmatch(r"Tile \d+/\d+ done", m)]
+    cores = plan_tiles(result.grid.shape, 60)  # 120 m tiles of 2 m voxels
+    areas = np.array([(i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in cores], dtype=float)
+    assert len(set(areas)) > 1 and len(done) == len(cores) + 1
+    expected = areas / areas.sum() * (1 - BEFORE_TILES - AFTER_TILES) * (1 - READ_SHARE)
+    np.testing.assert_allclose(sorted(np.diff(done)), sorted(expected), rtol=1e-9)
+
+
 def test_workers_without_dask_say_what_to_install(district, monkeypatch):
     monkeypatch.setitem(sys.modules, "dask", None)
     monkeypatch.setitem(sys.modules, "dask.distributed", None)
