@@ -552,11 +552,16 @@ def _reconstruct_clusters(ground, building, ground_cluster, building_cluster, cr
                           warnings, progress, is_cancelled, tiles) -> Reconstruction:
     """Reconstruct every cluster that has buildings on its own grid; merge."""
     wanted = np.unique(building_cluster)
+    # Each cluster's share of the progress bar: its share of the points.
+    size = (np.bincount(ground_cluster, minlength=wanted.max() + 1)
+            + np.bincount(building_cluster, minlength=wanted.max() + 1))[wanted].astype(np.float64)
+    starts = np.concatenate([[0.0], np.cumsum(size)]) / size.sum()
     parts = []
     for n, c in enumerate(wanted):
         def part_progress(fraction: float, message: str, n: int = n) -> None:
             if progress is not None:
-                progress((n + fraction) / len(wanted), Text("Cluster {}/{}: {}", n + 1, len(wanted), message))
+                progress(starts[n] + (starts[n + 1] - starts[n]) * fraction,
+                         Text("Cluster {}/{}: {}", n + 1, len(wanted), message))
         own_ground = ground[ground_cluster == c]
         if len(own_ground) == 0:
             warnings.append(f"Skipped a cluster of {int((building_cluster == c).sum())} building points "

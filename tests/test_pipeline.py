@@ -254,3 +254,23 @@ def test_non_finite_points_are_dropped_with_a_warning():
     assert warnings == ["Ignored 3 ground points with non-finite coordinates."]
     huge = np.full((4, 3), 1e308)  # a sum that overflows: every number is still finite
     assert len(_finite(huge, "ground", warnings)) == 4 and len(warnings) == 1
+
+
+def test_clusters_move_the_progress_bar_by_their_points(district):
+    """Two clusters far apart, one with a quarter of the other's points: the first ends at its share."""
+    from core.pipeline import reconstruct_points
+    from core.readers.las import read_point_clouds
+
+    points = read_point_clouds([district.laz])
+    far = np.array([3000.0, 0.0, 0.0])
+    ground = np.concatenate([points.ground, points.ground[::4] + far])
+    building = np.concatenate([points.building, points.building[::4] + far])
+    seen = []
+    result = reconstruct_points(ground, building, points.crs, ReconstructionParams(voxel_size=2.0), airborne=True,
+                                progress=lambda f, m: seen.append((f, m)))
+    assert result.stats["clusters"] == 2
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and fractions[-1] == pytest.approx(1.0)
+    first = len(points.ground) + len(points.building)
+    end_of_first = [f for f, m in seen if m.startswith("Cluster 1/2: ")][-1]
+    assert end_of_first == pytest.approx(first / (len(ground) + len(building)))
