@@ -272,10 +272,13 @@ def sample_surfaces(triangles, ground_triangles, h: float, unit: float,
 
     # Samples at 10 % of a voxel (paper §2), kept as one mean point per third
     # of a voxel: the same voxel occupancy, a tenth of the points.
-    meshes = [triangles] + ([ground_triangles] if ground_triangles is not None else [])
-    # The buildings' share of the bar: their share of the samples.
-    counts = [estimate_sample_count(mesh.corners(), 0.1 * h) for mesh in meshes]
-    middle = counts[0] / max(sum(counts), 1)
+    # The buildings' share of the bar: their share of the samples; without a
+    # ground mesh, three quarters (the base points took a quarter of Zurich's
+    # sampling at 1 m: 0.26-0.39 s of 1.3-2.1 s).
+    middle = 0.75
+    if ground_triangles is not None:
+        counts = [estimate_sample_count(mesh.corners(), 0.1 * h) for mesh in (triangles, ground_triangles)]
+        middle = counts[0] / max(sum(counts), 1)
     building = sample_thinned(triangles.corners(), 0.1 * h, h / 3, is_cancelled,
                               progress=part(progress, 0.0, middle))
     if ground_triangles is not None:
