@@ -84,7 +84,8 @@ def _progress_text(call: ast.Call) -> str | None:
     if _name(call) in ("report", "progress") and len(call.args) >= 2:
         return _constant(call.args[1])
     if _name(call) == "part":  # core.progress.part's label
-        label = call.args[3] if len(call.args) >= 4 else next((k.value for k in call.keywords if k.arg == "label"), None)
+        keywords = {k.arg: k.value for k in call.keywords}
+        label = call.args[3] if len(call.args) >= 4 else keywords.get("label")
         return None if label is None else _constant(label)
     return None
 
