@@ -48,7 +48,8 @@ _MARGIN = 1 + 1e-9
 
 def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, tri: np.ndarray,
                        positions: np.ndarray, rows: tuple[np.ndarray, np.ndarray], in_focus: np.ndarray,
-                       is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
+                       is_cancelled: Callable[[], bool] | None = None,
+                       searched: Callable[[int], None] | None = None) -> np.ndarray:
     """Crossing triangle pairs (P, 2), the triangle in focus first.
 
     Parameters
@@ -64,6 +65,9 @@ def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray,
         The triangles' float32 boxes (:func:`core.intersect._pair_rows`).
     in_focus : ndarray of bool (2 S,)
         Triangles whose crossings count; a pair needs one.
+    searched : callable, optional
+        Told the number of seeds of every block searched, from the thread
+        that searched it (for a progress bar).
 
     Returns
     -------
@@ -108,8 +112,11 @@ def crossing_triangles(centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray,
     def search(part: slice) -> np.ndarray:
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        return _search(seeds[part], centre, reach, is_seed, x0, y0, cell, nx, ny,
-                       *tiers[0], *tiers[1], positions, tri, lower, upper, in_focus)
+        pairs = _search(seeds[part], centre, reach, is_seed, x0, y0, cell, nx, ny,
+                        *tiers[0], *tiers[1], positions, tri, lower, upper, in_focus)
+        if searched is not None:
+            searched(part.stop - part.start)
+        return pairs
 
     found.extend(map_blocks(search, row_blocks(len(seeds), _SEED_BLOCK)))
     return np.concatenate(found)

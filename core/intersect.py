@@ -24,6 +24,7 @@ here runs without it and stays the reference the tests compare it with.
 """
 from __future__ import annotations
 
+import threading
 from typing import Callable
 
 import numpy as np
@@ -432,7 +433,8 @@ def _edges_cross(edges_of: list[Vector], faces: list[Vector]) -> np.ndarray:
 def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: np.ndarray,
                    max_rounds: int = 20, chunk: int = 20_000,
                    is_cancelled: Callable[[], bool] | None = None,
-                   overwrite_new: bool = False) -> tuple[np.ndarray, np.ndarray, int]:
+                   overwrite_new: bool = False,
+                   progress: Callable[[float, str], None] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """Undo moves until no moved triangle crosses another.
 
     Each quad is split along its best diagonal (:func:`core.quality.best_diagonal`)
@@ -454,6 +456,10 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     overwrite_new : bool
         The moves are undone in ``new``, which is returned, instead of in a copy
         (as :func:`core.quality.accept_moves`).
+    progress : callable, optional
+        ``progress(fraction, message)`` as the first round's compiled search
+        goes over the seeds (most of the time: 1.6 of 2.5 s on the 1 km
+        city; the later rounds look at a few faces).
 
     Returns
     -------
@@ -483,8 +489,9 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         radius = 2 * reach.max()
         if cells is None or radius > cells.radius:
             cells = _Cells(centre, radius)
+        searched = _seed_counter(progress, len(seeds)) if near is None else None  # the first round's
         pairs = _crossing_quads(positions, quads, diagonal, split, centre, reach, seeds, moved, near,
-                                cells, chunk, is_cancelled)
+                                cells, chunk, is_cancelled, searched)
         if len(pairs) == 0:
             break
         culprits = np.unique(pairs)
@@ -510,10 +517,27 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     return positions, moved, undone
 
 
+def _seed_counter(progress: Callable[[float, str], None] | None, total: int) -> Callable[[int], None] | None:
+    """``searched(count)`` for the compiled search's threads: ``progress`` at
+    the share of ``total`` seeds searched so far, one thread at a time (the
+    bar never goes back)."""
+    if progress is None or total == 0:
+        return None
+    lock = threading.Lock()
+    done = [0]
+
+    def searched(count: int) -> None:
+        with lock:
+            done[0] += count
+            progress(done[0] / total, "face crossings")
+    return searched
+
+
 def _crossing_quads(positions: np.ndarray, quads: np.ndarray, diagonal: np.ndarray, split: np.ndarray,
                     centre: np.ndarray, reach: np.ndarray, seeds: np.ndarray, moved: np.ndarray,
                     near: tuple[np.ndarray, np.ndarray] | None, cells: _Cells, chunk: int,
-                    is_cancelled: Callable[[], bool] | None) -> np.ndarray:
+                    is_cancelled: Callable[[], bool] | None,
+                    searched: Callable[[int], None] | None = None) -> np.ndarray:
     """One round of :func:`undo_crossings`: the node triples of the crossing
     triangle pairs (P, 2, 3) with a triangle of a ``seeds`` quad and one in focus.
 
@@ -543,7 +567,7 @@ def _crossing_quads(positions: np.ndarray, quads: np.ndarray, diagonal: np.ndarr
     if jit.kernels("crossing_kernel", len(sub)) is not None:
         # One compiled pass over the seeds, the same crossings (core.crossing_kernel).
         pairs = jit.run("crossing_kernel", "crossing_triangles", centre.take(sub, axis=0), reach.take(sub),
-                        np.searchsorted(sub, seeds), tri, positions, rows, in_focus, is_cancelled)
+                        np.searchsorted(sub, seeds), tri, positions, rows, in_focus, is_cancelled, searched)
         if pairs is not None:
             return tri.take(pairs, axis=0)
     found = [np.zeros((0, 2), dtype=np.int64)]

@@ -213,8 +213,9 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     stats["crossing"] = 0
     if check_crossings:
         report_part("face crossings")
-        result, kept, stats["crossing"] = undo_crossings(nodes, result, kept & wanted, model.quads,
-                                                         is_cancelled=is_cancelled, overwrite_new=True)
+        result, kept, stats["crossing"] = undo_crossings(
+            nodes, result, kept & wanted, model.quads, is_cancelled=is_cancelled, overwrite_new=True,
+            progress=lambda fraction, message: report_part("face crossings", fraction))
     stats["projected"] = int((wanted & kept).sum())
     stats["refused"] = int((wanted & ~kept).sum())
     return result, stats

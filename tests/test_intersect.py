@@ -3,6 +3,7 @@ import numpy as np
 import pytest
 
 from core.intersect import undo_crossings
+from core.topology import touching
 
 
 def two_plates(gap):
@@ -327,3 +328,26 @@ def test_box_dilation_by_shifts_is_scipys():
     for shape in [(1, 1, 1), (2, 3, 1), (7, 9, 11), (30, 20, 5)]:
         mask = rng.random(shape) < 0.05
         assert np.array_equal(_dilated(mask), ndimage.binary_dilation(mask, np.ones((3, 3, 3), bool)))
+
+
+def test_the_compiled_search_reports_its_first_round_seed_block_by_seed_block(monkeypatch, compiled):
+    """The progress of the first round goes over all its seeds, in order, and changes no result."""
+    from core import crossing_kernel
+
+    monkeypatch.setenv("URBANVOX_JIT", "1")
+    compiled("crossing_kernel")
+    monkeypatch.setattr(crossing_kernel, "_SEED_BLOCK", 16)
+    old, quads = stacked_grids()
+    rng = np.random.default_rng(2)
+    moved = rng.random(len(old)) < 0.5
+    new = old.copy()
+    new[moved] += rng.normal(scale=0.25, size=(moved.sum(), 3))
+    seen = []
+    reported = undo_crossings(old, new, moved, quads, progress=lambda f, m: seen.append((f, m)))
+    quiet = undo_crossings(old, new, moved, quads)
+    assert reported[2] == quiet[2] > 0
+    assert np.array_equal(reported[0], quiet[0]) and np.array_equal(reported[1], quiet[1])
+    fractions = [f for f, _ in seen]
+    seeds = np.count_nonzero(touching(moved, quads))  # the first round's: the quads around a moved node
+    assert len(seen) == -(-seeds // 16) and fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert {m for _, m in seen} == {"face crossings"}
