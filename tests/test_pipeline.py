@@ -193,9 +193,10 @@ def test_progress_is_reported_through_every_stage(district):
                             progress=lambda f, m: seen.append((f, m)))
     fractions = [f for f, _ in seen]
     assert fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] == 1.0
-    at = {m: f for f, m in seen}
+    at = {m: f for f, m in reversed(seen)}  # where each message is first shown
     # The reading has its share, then every step starts where its share of a run's time puts it.
-    assert at["Reading point cloud"] == pytest.approx(READ_SHARE)
+    reading = [f for f, m in seen if m == "Reading point cloud"]
+    assert reading[0] == 0.0 and reading[-1] == pytest.approx(READ_SHARE)
     for message, step in (("Ground level of every column", "ground"), ("Measuring the blocks", "measure"),
                           ("Projecting nodes onto the data", "project_blocks")):
         assert at[message] == pytest.approx(READ_SHARE + (1 - READ_SHARE) * STEP_STARTS[step])
