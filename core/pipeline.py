@@ -558,9 +558,10 @@ def _reconstruct_clusters(ground, building, ground_cluster, building_cluster, cr
     """Reconstruct every cluster that has buildings on its own grid; merge."""
     wanted = np.unique(building_cluster)
     # Each cluster's share of the progress bar: its share of the points.
-    size = (np.bincount(ground_cluster, minlength=wanted.max() + 1)
-            + np.bincount(building_cluster, minlength=wanted.max() + 1))[wanted].astype(np.float64)
-    starts = np.concatenate([[0.0], np.cumsum(size)]) / size.sum()
+    # (Ground far from any building is a cluster of its own, left out.)
+    n = int(max(ground_cluster.max(initial=0), building_cluster.max(initial=0))) + 1
+    size = (np.bincount(ground_cluster, minlength=n) + np.bincount(building_cluster, minlength=n))[wanted]
+    starts = np.concatenate([[0.0], np.cumsum(size)]) / max(size.sum(), 1)
     parts = []
     for n, c in enumerate(wanted):
         def part_progress(fraction: float, message: str, n: int = n) -> None:
