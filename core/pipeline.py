@@ -527,8 +527,7 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         del ground_data, ground_search
     else:
         ground_tree = in_background(point_index, ground, COLUMN_VOXELS * h)
-    measuring = part(report, STEP_STARTS["measure"], 1.0)
-    measuring(0.0, "Measuring the blocks")
+    report(STEP_STARTS["measure"], "Measuring the blocks")
     mesh = SurfaceModel(nodes=nodes, quads=surface.quads, regions=surface.regions)
     # Distance of block nodes to the data (the nearest building or ground
     # point). Most block nodes are roofs and walls, high above any ground
@@ -538,7 +537,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     distance[roles.on_block] = nearest_distance(nodes[roles.on_block], [building_search, ground_tree], h,
                                                 [None, near_ground.result()])
     del building_search, ground_tree, near_ground
-    measuring(0.6, "Measuring the blocks")  # the distances took 0.93 s of the 1 km city's 1.59 s
+    # The distances took 0.93 s of the 1 km city's 1.59 s of measures.
+    report(STEP_STARTS["measure"] + 0.6 * (1 - STEP_STARTS["measure"]), "Measuring the blocks")
     # The block faces' best splits, for the measures and then the layers' triangles.
     split = block_face_split(mesh, nodes)
     measures = measure_blocks(mesh, nodes, int(table.block_id.max()) if len(table) else 0, distance, split=split)

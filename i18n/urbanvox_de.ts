@@ -300,6 +300,10 @@
       <translation>Die Daten zerfallen in {} getrennte Gruppen, jede auf ihrem eigenen Gitter rekonstruiert; jede Gruppe hat ihre eigenen Boden- und Luftvolumen.</translation>
     </message>
     <message>
+      <source>face crossings</source>
+      <translation>Flächenüberschneidungen</translation>
+    </message>
+    <message>
       <source>Reading point cloud</source>
       <translation>Punktwolke wird gelesen</translation>
     </message>
@@ -390,10 +394,6 @@
     <message>
       <source>quality control</source>
       <translation>Qualitätskontrolle</translation>
-    </message>
-    <message>
-      <source>face crossings</source>
-      <translation>Flächenüberschneidungen</translation>
     </message>
     <message>
       <source>moving-least-squares planes</source>

@@ -300,6 +300,10 @@
       <translation>Les données forment {} groupes séparés, reconstruits chacun sur sa propre grille ; chaque groupe a ses propres volumes de sol et d'air.</translation>
     </message>
     <message>
+      <source>face crossings</source>
+      <translation>croisements de faces</translation>
+    </message>
+    <message>
       <source>Reading point cloud</source>
       <translation>Lecture du nuage de points</translation>
     </message>
@@ -390,10 +394,6 @@
     <message>
       <source>quality control</source>
       <translation>contrôle de qualité</translation>
-    </message>
-    <message>
-      <source>face crossings</source>
-      <translation>croisements de faces</translation>
     </message>
     <message>
       <source>moving-least-squares planes</source>
