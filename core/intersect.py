@@ -24,7 +24,6 @@ here runs without it and stays the reference the tests compare it with.
 """
 from __future__ import annotations
 
-import threading
 from typing import Callable
 
 import numpy as np
@@ -33,6 +32,7 @@ from . import jit
 from .errors import Cancelled
 from .neighbours import search_tree
 from .parallel import map_blocks, row_blocks, thread_count
+from .progress import counted
 from .quality import best_diagonal, split_along
 from .topology import touching
 from .vectors import Vector, coordinates, cross, dot, length, minus
@@ -43,6 +43,9 @@ _CLASS_QUANTILES = (0.9, 0.99)
 _PAIR_BLOCK = 8192
 #: Faces whose balls or boxes are made at a time (a few MB of temporaries).
 _ROWS = 1 << 16
+#: The share of the crossing control's time before the first round's search
+#: (the faces' balls and cells: a sixth of it for the 1 km city's blocks).
+_BALLS_SHARE = 0.15
 
 
 def _pair_rows(nodes: np.ndarray, tri: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -471,6 +474,8 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
     undone = 0
     near = None  # after a round, only the neighbourhood of what was undone can still cross
     centre, reach = _balls(positions, quads)
+    if progress is not None:
+        progress(_BALLS_SHARE, "face crossings")
     # The best diagonal of the quads met so far (a flag per quad, not their
     # triangles: 233 MB on the 1 km city); a quad whose nodes are put back is
     # split again when it is next met.
@@ -489,7 +494,11 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         radius = 2 * reach.max()
         if cells is None or radius > cells.radius:
             cells = _Cells(centre, radius)
-        searched = _seed_counter(progress, len(seeds)) if near is None else None  # the first round's
+        # The first round's seeds, as the compiled search's threads finish them.
+        searched = None
+        if near is None and progress is not None:
+            searched = counted(lambda share: progress(_BALLS_SHARE + (1 - _BALLS_SHARE) * share, "face crossings"),
+                               len(seeds))
         pairs = _crossing_quads(positions, quads, diagonal, split, centre, reach, seeds, moved, near,
                                 cells, chunk, is_cancelled, searched)
         if len(pairs) == 0:
@@ -515,22 +524,6 @@ def undo_crossings(old: np.ndarray, new: np.ndarray, moved: np.ndarray, quads: n
         changed[touched] = True
         seeds = np.flatnonzero(changed)
     return positions, moved, undone
-
-
-def _seed_counter(progress: Callable[[float, str], None] | None, total: int) -> Callable[[int], None] | None:
-    """``searched(count)`` for the compiled search's threads: ``progress`` at
-    the share of ``total`` seeds searched so far, one thread at a time (the
-    bar never goes back)."""
-    if progress is None or total == 0:
-        return None
-    lock = threading.Lock()
-    done = [0]
-
-    def searched(count: int) -> None:
-        with lock:
-            done[0] += count
-            progress(done[0] / total, "face crossings")
-    return searched
 
 
 def _crossing_quads(positions: np.ndarray, quads: np.ndarray, diagonal: np.ndarray, split: np.ndarray,

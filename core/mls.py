@@ -23,11 +23,13 @@ same 900 k planes on one core.
 """
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from . import jit
 from .neighbours import PointSearch, nearest
-from .parallel import map_blocks, on_pool, row_blocks, take_rows
+from .parallel import map_ahead, on_pool, row_blocks, take_rows
 from .vectors import cross
 
 #: Data points per plane.
@@ -40,8 +42,11 @@ TINY_TRACE = 2.0 ** -200
 
 
 def mls_planes(data: np.ndarray, tree: PointSearch, at: np.ndarray, sigma: float,
-               k: int = PLANE_POINTS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Weighted least-squares planes of the data around points ``at``.
+               k: int = PLANE_POINTS, fitted: Callable[[float], None] | None = None,
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Weighted least-squares planes of the data around points ``at``;
+    ``fitted(share)`` is told the share of them fitted so far, block by block
+    (from this thread).
 
     Returns
     -------
@@ -68,8 +73,13 @@ def mls_planes(data: np.ndarray, tree: PointSearch, at: np.ndarray, sigma: float
         return centre, normal, values[:, 1] > 1e-3 * np.maximum(values[:, 2], 1e-300)
 
     # Each plane is fitted from its own rows: blocks of rows run on all cores
-    # (the KD-tree searches release the GIL).
-    parts = map_blocks(fit, blocks) or [fit(slice(0, 0))]
+    # (the KD-tree searches release the GIL), taken here in order as they end.
+    parts = []
+    for part in map_ahead(fit, blocks):
+        parts.append(part)
+        if fitted is not None:
+            fitted(len(parts) / len(blocks))
+    parts = parts or [fit(slice(0, 0))]
     return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))
 
 
@@ -245,8 +255,10 @@ class PlaneCache:
         self.centre, self.normal = np.empty((0, 3)), np.empty((0, 3))
         self.flat = np.empty(0, dtype=bool)
 
-    def __call__(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Centre, normal and flatness (as :func:`mls_planes`) of the planes at ``points`` (data indices)."""
+    def __call__(self, points: np.ndarray, fitted: Callable[[float], None] | None = None,
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centre, normal and flatness (as :func:`mls_planes`) of the planes at
+        ``points`` (data indices); ``fitted`` as there, of the planes not fitted before."""
         # Gathers of rows scattered over tables of every data point: on all cores.
         row = take_rows(self.slot, points)
         unfitted = row < 0
@@ -257,7 +269,7 @@ class PlaneCache:
             wanted[missing] = True
             new = np.flatnonzero(wanted)
             centre, normal, flat = mls_planes(self.data, self.tree, self.data.take(new, axis=0), self.sigma,
-                                              PLANE_POINTS)
+                                              PLANE_POINTS, fitted)
             self.slot[new] = np.arange(len(self.flat), len(self.flat) + len(new))
             self.centre = np.concatenate([self.centre, centre])
             self.normal = np.concatenate([self.normal, normal])

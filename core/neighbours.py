@@ -23,7 +23,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import jit
-from .parallel import in_background, thread_count
+from .parallel import in_background, row_blocks, thread_count
 
 if TYPE_CHECKING:  # imports numba: only where a kernel runs (core.jit)
     from .neighbours_kernel import ColumnIndex
@@ -38,6 +38,11 @@ PointSearch = Union[cKDTree, "ColumnIndex"]
 #: busy (another process, QGIS, a Dask worker beside): Zurich's CityJSON, one small grid per
 #: building, took 8.9-10.1 s with two other processes busy, 5.7-7.0 s so.
 SMALL_QUERY = 12_000
+
+#: :func:`nearest_distance`'s first search, in at most this many parts of at
+#: least so many points, each told to its ``progress``; and that search's
+#: share of its time (the others search near the points only).
+DISTANCE_PARTS, DISTANCE_PART_ROWS, FIRST_SEARCH_SHARE = 8, 1 << 17, 0.75
 
 
 def query_threads(n_points: int, k: int, wanted: int | None = None) -> int:
@@ -209,7 +214,7 @@ def by_value_then_coordinates(value: np.ndarray, index: np.ndarray, data: np.nda
 
 def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
                      maybe_within: Sequence[Callable[[np.ndarray, float], np.ndarray] | None] | None = None,
-                     ) -> np.ndarray:
+                     progress: Callable[[float], None] | None = None) -> np.ndarray:
     """Distance from every point to the nearest point of any tree's data (NaN without data).
 
     A tree may also be a compiled index (:func:`point_index`): the same
@@ -230,6 +235,10 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
     skip that search (roofs and walls high above the ground,
     :class:`core.ground.NearGround`).
 
+    ``progress(share)`` is told the share of the work done, as the first
+    search goes (1.79 M block nodes took 0.7-0.9 s on the 1 km city) and
+    when it ends.
+
     Examples
     --------
     >>> near, far = search_tree(np.array([[0.0, 0, 1]])), search_tree(np.array([[0.0, 0, -5]]))
@@ -247,7 +256,11 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
         if tree.n == 0 or len(points) == 0:
             continue
         if not searched:
-            distance = nearest_within(tree, points, np.inf)
+            distance = np.empty(len(points))
+            for rows in row_blocks(len(points), max(DISTANCE_PART_ROWS, -(-len(points) // DISTANCE_PARTS))):
+                distance[rows] = nearest_within(tree, points[rows], np.inf)
+                if progress is not None:
+                    progress(FIRST_SEARCH_SHARE * rows.stop / len(points))
             searched = True
             continue
         maybe = maybe_within[n] if maybe_within is not None else None
@@ -281,6 +294,8 @@ def nearest_distance(points: np.ndarray, trees: Sequence, bound: float,
             pending = pending[~now]
         np.minimum(distance, found, out=distance)
     distance[np.isinf(distance)] = np.nan
+    if progress is not None:
+        progress(1.0)
     return distance
 
 

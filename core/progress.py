@@ -12,6 +12,7 @@ collects both kinds from the source.
 """
 from __future__ import annotations
 
+import threading
 from typing import Callable
 
 from .errors import Cancelled
@@ -98,6 +99,33 @@ def part(progress: Progress | None, start: float, end: float, label: str | None 
         progress(start + (end - start) * min(max(fraction, 0.0), 1.0),
                  message if label is None else Text("{}: {}", label, message))
     return report
+
+
+def counted(report: Callable[[float], None] | None, total: int) -> Callable[[int], None] | None:
+    """``done(count)`` for threads that each finish some of ``total`` items
+    (blocks of rows on the pool's threads): ``report(share)`` with the share
+    of them finished so far, one thread at a time, so the bar never goes
+    back. None without ``report`` or items.
+
+    Examples
+    --------
+    >>> seen = []
+    >>> done = counted(seen.append, 4)
+    >>> done(1); done(3)
+    >>> seen
+    [0.25, 1.0]
+    """
+    if report is None or total <= 0:
+        return None
+    lock = threading.Lock()
+    finished = 0
+
+    def done(count: int) -> None:
+        nonlocal finished
+        with lock:
+            finished += count
+            report(finished / total)
+    return done
 
 
 def translated(message: str, translate: Callable[[str], str]) -> str:

@@ -36,6 +36,7 @@ from .intersect import undo_crossings
 from .mls import PlaneCache
 from .neighbours import PointSearch, by_value_then_coordinates, nearest, point_index
 from .parallel import map_blocks, row_blocks
+from .progress import counted
 from .quality import accept_moves, quad_normals
 from .smooth import NodeRoles
 from .surface import GROUND_REGION, SurfaceModel
@@ -55,8 +56,11 @@ _QUERY_ROWS, _LINE_ROWS = 1 << 17, 4096
 #: The parts of :func:`project_nodes`, in order, with their seconds for the
 #: block nodes of the 1 km synthetic city at 1 m: the share of the progress
 #: bar each takes of the parts a call runs (the ground's skips the crossings).
-_PART_SECONDS = {"nearest data points": 0.91, "moving-least-squares planes": 1.45, "quality control": 0.22,
-                 "face crossings": 2.17}
+_PART_SECONDS = {"nodal normals": 0.3, "nearest data points": 0.61, "moving-least-squares planes": 1.45,
+                 "quality control": 0.22, "face crossings": 2.17}
+#: The share of the planes' part a try's fitting takes of what is left of it
+#: (the first try fits the planes of most nodes).
+_FIRST_TRY_SHARE = 0.9
 
 
 def node_normals(nodes: np.ndarray, quads: np.ndarray, n: int) -> np.ndarray:
@@ -185,7 +189,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     if is_cancelled is not None and is_cancelled():
         raise Cancelled()
     report_part = _part_reporter(progress, check_crossings)
-    report_part("nearest data points")
+    report_part("nodal normals")
     normal = outward_normals(model, nodes, roles, select)
     # take and compress: row gathers faster than indexing (core.vectors).
     fixed_axes = roles.fixed_axes.take(idx_nodes, axis=0)
@@ -195,6 +199,7 @@ def project_nodes(model: SurfaceModel, nodes: np.ndarray, roles: NodeRoles, sele
     usable = size[:, 0] > 1e-6
     normal = np.divide(normal, size, out=np.zeros_like(normal), where=size > 0)
     p = nodes.take(idx_nodes, axis=0)
+    report_part("nearest data points")
     tree = point_index(data, COLUMN_VOXELS * voxel_size, tree)
     target, stats["no_plane"] = _plane_targets(tree, data, p, normal, usable, max_distance * voxel_size,
                                                voxel_size, max_angle, is_cancelled, report_part)
@@ -251,20 +256,33 @@ def _plane_targets(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: n
     the resident memory rose to 2,070 MB in the buildings' crossing control
     with them held, to 1,870 MB without.
     """
-    candidates = _candidates(tree, data, p, normal, radius, _TRIES, is_cancelled)
+    searched = None
+    if report_part is not None:  # as the threads find the nodes' points
+        searched = counted(lambda share: report_part("nearest data points", share), len(p))
+    candidates = _candidates(tree, data, p, normal, radius, _TRIES, is_cancelled, searched)
     cos_max = np.cos(np.radians(max_angle))
     target = p.copy()
     done = ~usable
     planes = PlaneCache(data, tree, 0.5 * voxel_size)
+    reported = 0.0  # the bar never goes back where a try's estimate ran ahead
     for attempt in range(candidates.shape[1]):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         todo = np.flatnonzero(~done & (candidates[:, attempt] < len(data)))
         if len(todo) == 0:
             break
-        if report_part is not None:  # the nodes that still look for a plane: most find it at the first try
-            report_part("moving-least-squares planes", 1.0 - len(todo) / max(len(p), 1))
-        centre, plane_normal, flat = planes(candidates[todo, attempt])
+        fitted = None
+        if report_part is not None:
+            # The share of the nodes that found their plane, and within a try
+            # (the first: most find it there) the share of its planes fitted.
+            before = 1.0 - len(todo) / max(len(p), 1)
+
+            def fitted(share: float, before: float = before) -> None:
+                nonlocal reported
+                reported = max(reported, before + (1.0 - before) * _FIRST_TRY_SHARE * share)
+                report_part("moving-least-squares planes", reported)
+            fitted(0.0)
+        centre, plane_normal, flat = planes(candidates[todo, attempt], fitted)
         normal_todo = normal.take(todo, axis=0)
         cos = np.einsum("qc,qc->q", plane_normal, normal_todo)
         compatible = flat & (np.abs(cos) >= cos_max)
@@ -277,7 +295,8 @@ def _plane_targets(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: n
 
 
 def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.ndarray, radius: float,
-                tries: int, is_cancelled: Callable[[], bool] | None = None) -> np.ndarray:
+                tries: int, is_cancelled: Callable[[], bool] | None = None,
+                searched: Callable[[int], None] | None = None) -> np.ndarray:
     """The data points each node tries, best first (step 1 of the module doc).
 
     Among the ``_NEAR`` data points within ``radius`` of each node ``p``, the
@@ -290,6 +309,7 @@ def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.n
     24 indices, distances, distances to the line, their ranks) are needed
     only to pick a few points per node, and on a city, all at once, they
     took gigabytes. Each node's points depend on its own row only.
+    ``searched(count)`` is told of each block of nodes done.
 
     Returns
     -------
@@ -300,7 +320,7 @@ def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.n
         # The same points from the compiled index, without the tables of
         # nearest points (core.projection_kernel): all the nodes at once.
         chosen = jit.run("projection_kernel", "candidates_near_lines", tree, p, normal, _NEAR, radius, tries, None,
-                         is_cancelled, size=len(p))
+                         is_cancelled, searched, size=len(p))
         if chosen is not None:
             return chosen
     k = min(_NEAR, len(data))
@@ -314,19 +334,21 @@ def _candidates(tree: PointSearch, data: np.ndarray, p: np.ndarray, normal: np.n
                          size=len(p))
         if chosen is not None:
             candidates[rows] = chosen
-            continue
-        out = candidates[rows]
-        start = rows.start
+        else:
+            out = candidates[rows]
+            start = rows.start
 
-        def rank(part: slice, near: np.ndarray = near, out: np.ndarray = out, start: int = start) -> None:
-            # Each node's points from its own row: blocks of rows on all
-            # cores, their tables in the cache.
-            where = slice(start + part.start, start + part.stop)
-            off_line = _distance_to_line(data, near[part], p[where], normal[where])
-            # A missing neighbour is infinitely far from the line, and its index is len(data).
-            out[part] = np.take_along_axis(near[part], _ranked(off_line, near[part], data, tries), axis=1)
+            def rank(part: slice, near: np.ndarray = near, out: np.ndarray = out, start: int = start) -> None:
+                # Each node's points from its own row: blocks of rows on all
+                # cores, their tables in the cache.
+                where = slice(start + part.start, start + part.stop)
+                off_line = _distance_to_line(data, near[part], p[where], normal[where])
+                # A missing neighbour is infinitely far from the line, and its index is len(data).
+                out[part] = np.take_along_axis(near[part], _ranked(off_line, near[part], data, tries), axis=1)
 
-        map_blocks(rank, row_blocks(len(near), _LINE_ROWS))
+            map_blocks(rank, row_blocks(len(near), _LINE_ROWS))
+        if searched is not None:
+            searched(len(near))
     return candidates
 
 

@@ -388,6 +388,10 @@
       <translation>{}: {}</translation>
     </message>
     <message>
+      <source>nodal normals</source>
+      <translation>Knotennormalen</translation>
+    </message>
+    <message>
       <source>nearest data points</source>
       <translation>nächste Datenpunkte</translation>
     </message>

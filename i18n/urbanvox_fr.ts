@@ -388,6 +388,10 @@
       <translation>{} : {}</translation>
     </message>
     <message>
+      <source>nodal normals</source>
+      <translation>normales aux nœuds</translation>
+    </message>
+    <message>
       <source>nearest data points</source>
       <translation>points de données les plus proches</translation>
     </message>

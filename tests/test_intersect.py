@@ -333,6 +333,7 @@ def test_box_dilation_by_shifts_is_scipys():
 def test_the_compiled_search_reports_its_first_round_seed_block_by_seed_block(monkeypatch, compiled):
     """The progress of the first round goes over all its seeds, in order, and changes no result."""
     from core import crossing_kernel
+    from core.intersect import _BALLS_SHARE
 
     monkeypatch.setenv("URBANVOX_JIT", "1")
     compiled("crossing_kernel")
@@ -349,5 +350,7 @@ def test_the_compiled_search_reports_its_first_round_seed_block_by_seed_block(mo
     assert np.array_equal(reported[0], quiet[0]) and np.array_equal(reported[1], quiet[1])
     fractions = [f for f, _ in seen]
     seeds = np.count_nonzero(touching(moved, quads))  # the first round's: the quads around a moved node
-    assert len(seen) == -(-seeds // 16) and fractions == sorted(fractions) and fractions[-1] == 1.0
+    # The balls first, then every block of seeds.
+    assert len(seen) == 1 + -(-seeds // 16) and fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert fractions[0] == _BALLS_SHARE
     assert {m for _, m in seen} == {"face crossings"}

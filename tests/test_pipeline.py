@@ -202,13 +202,44 @@ def test_progress_is_reported_through_every_stage(district):
         assert at[message] == pytest.approx(READ_SHARE + (1 - READ_SHARE) * STEP_STARTS[step])
     # The long steps move the bar as they go: the smoothing pass by pass, the projection part by part.
     assert [m for _, m in seen if m.startswith("Smoothing: ")] == [f"Smoothing: pass {k} of 3" for k in (1, 2, 3)]
-    parts = ["nearest data points", "moving-least-squares planes", "quality control", "face crossings"]
+    parts = ["nodal normals", "nearest data points", "moving-least-squares planes", "quality control",
+             "face crossings"]
     blocks = [m for _, m in seen if m.startswith("Projecting block nodes: ")]
     assert sorted(set(blocks), key=blocks.index) == [f"Projecting block nodes: {p}" for p in parts]
     ground = [m for _, m in seen if m.startswith("Projecting ground nodes: ")]
-    assert sorted(set(ground), key=ground.index) == [f"Projecting ground nodes: {p}" for p in parts[:3]]
+    assert sorted(set(ground), key=ground.index) == [f"Projecting ground nodes: {p}" for p in parts[:4]]
     projection = [f for f, m in seen if m.startswith("Projecting")]
     assert len(set(projection)) >= 7
+
+
+def test_projection_and_measures_move_the_bar_block_by_block_with_the_same_model(district, monkeypatch):
+    """The nodes' nearest data points, the MLS planes and the measures' distances
+    report as their blocks of rows end (small blocks here, so that the district
+    has many): the bar moves within each part, never back, and the model is the
+    one of a run with the usual blocks, to the last bit."""
+    import core.mls
+    import core.neighbours
+    import core.project
+    from core import jit
+
+    params = ReconstructionParams(voxel_size=1.0)
+    usual = reconstruct_point_cloud(district.laz, params=params)
+    monkeypatch.setattr(core.mls, "FIT_ROWS", 64)
+    monkeypatch.setattr(core.project, "_QUERY_ROWS", 64)
+    monkeypatch.setattr(core.neighbours, "DISTANCE_PART_ROWS", 64)
+    kernel = jit.kernels("projection_kernel")
+    if kernel is not None:
+        monkeypatch.setattr(kernel, "_BLOCK", 64)
+    seen = []
+    small = reconstruct_point_cloud(district.laz, params=params, progress=lambda f, m: seen.append((f, m)))
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions)
+    for message in ("Projecting block nodes: nearest data points", "Projecting block nodes: moving-least-squares planes",
+                    "Projecting ground nodes: nearest data points",
+                    "Projecting ground nodes: moving-least-squares planes", "Measuring the blocks"):
+        assert len({f for f, m in seen if m == message}) >= 5, message
+    assert np.array_equal(small.mesh.nodes, usual.mesh.nodes)
+    assert small.block_rows() == usual.block_rows()
 
 
 def test_a_mesh_run_reports_its_reading_and_sampling_first(district):
