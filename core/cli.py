@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 from .errors import Cancelled, UrbanvoxError
+from .export import check_output_path
 from .heap import one_arena
 from .pipeline import ReconstructionParams, reconstruct_mesh, reconstruct_point_cloud
 from .readers.cityjson import is_cityjson
@@ -62,12 +63,6 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     one_arena()  # this process is the run's: its threads share the heap that reuses freed memory
-    params = ReconstructionParams(voxel_size=args.voxel_size, smoothing_iterations=args.smoothing,
-                                  project=not args.no_projection,
-                                  extent=tuple(args.extent) if args.extent else None)
-    tiles = None
-    if args.tile_size > 0 or args.scheduler:
-        tiles = TileOptions(tile_size=args.tile_size or 250.0, workers=args.workers, scheduler=args.scheduler)
     last = [-1]
 
     def progress(fraction: float, message: str) -> None:
@@ -77,6 +72,17 @@ def main(argv: list[str] | None = None) -> int:
 
     start = time.perf_counter()
     try:
+        params = ReconstructionParams(voxel_size=args.voxel_size, smoothing_iterations=args.smoothing,
+                                      project=not args.no_projection,
+                                      extent=tuple(args.extent) if args.extent else None)
+        tiles = None
+        if args.tile_size > 0 or args.scheduler:
+            tiles = TileOptions(tile_size=args.tile_size or 250.0, workers=args.workers, scheduler=args.scheduler)
+        # The outputs' paths before the run, not after its minutes of work.
+        if args.mesh:
+            check_output_path(args.mesh)
+        if args.report:
+            check_output_path(args.report, suffixes=None)
         if all(p.suffix.lower() in POINT_CLOUD_SUFFIXES for p in args.inputs):
             result = reconstruct_point_cloud(args.inputs, crs=args.crs, ground_classes=args.ground_classes,
                                              building_classes=args.building_classes, params=params,
@@ -97,6 +103,9 @@ def main(argv: list[str] | None = None) -> int:
     except UrbanvoxError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except OSError as error:  # a disk full, a folder removed meanwhile: no traceback
+        print(f"error: cannot write {error.filename or 'the output'}: {error.strerror or error}", file=sys.stderr)
+        return 2
     seconds = time.perf_counter() - start
     for warning in result.warnings:
         print(f"warning: {warning}", file=sys.stderr)
@@ -106,7 +115,11 @@ def main(argv: list[str] | None = None) -> int:
     if args.report:
         report = {"summary": summary, "seconds": seconds, "stats": _plain(result.stats),
                   "warnings": result.warnings, "blocks": result.block_rows()}
-        args.report.write_text(json.dumps(report, indent=1))
+        try:
+            args.report.write_text(json.dumps(report, indent=1))
+        except OSError as error:
+            print(f"error: cannot write the report {args.report}: {error.strerror or error}", file=sys.stderr)
+            return 2
     return 0
 
 

@@ -17,8 +17,11 @@ from typing import Sequence
 
 import numpy as np
 from scipy import ndimage
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from .blocks import BlockTable
+from .errors import UrbanvoxError
 from .grid import VoxelGrid, bounds
 from .measure import BlockMeasures
 from .parallel import map_blocks, row_blocks
@@ -29,6 +32,12 @@ from .surface import SurfaceModel
 #: Points per block of :func:`split_clusters`: a few MB of temporaries, and blocks long
 #: enough that the two threads do not wait on each other for the GIL (1 << 16: 1.05 s, 0.9 s so).
 _ROWS = 1 << 18
+#: Cells of the largest grid of :func:`split_clusters` made whole (4 MB of flags, 200 km square
+#: in 50 m cells); data spread wider (a stray point thousands of km away, files of far apart
+#: places) are clustered through their occupied cells only.
+DENSE_CELLS = 1 << 22
+#: Cells of a row in the keys of :func:`_split_sparse`: any grid of 50 m cells on Earth is narrower.
+_KEY_ROW = 1 << 31
 
 
 def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
@@ -51,6 +60,11 @@ def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
     # The cells of the lowest and highest coordinates bound every point's
     # (floor and the division are monotone).
     lowest, highest = bounds(present)
+    span = float(np.max(highest[:2] - lowest[:2]))
+    if not span / gap < _KEY_ROW:  # NaN too
+        raise UrbanvoxError(f"The data span {span:.4g} units across: far more than any city. A point far away "
+                            "(a corrupt coordinate or scale in a file) or files of different coordinate "
+                            "systems? Crop the data (EXTENT) or fix the file.")
     lower = np.floor(lowest[:2] / gap).astype(np.int64)
     shape = tuple(int(v) for v in np.floor(highest[:2] / gap).astype(np.int64) - lower + 1)
 
@@ -65,6 +79,8 @@ def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
     # Blocks of points on all cores, each marking a grid of its own (a few
     # kB): no table of every point's cells, 4 arrays of 8 bytes a point (the
     # 2 km city's 50 M points: 2.8-3.4 s -> 0.9 s, most of it fresh pages).
+    if shape[0] * shape[1] > DENSE_CELLS:
+        return _split_sparse(parts, cells)
     occupied = np.zeros(shape, dtype=bool)
     for points in present:
         for mask in map_blocks(lambda rows, points=points: occupied_by(points, rows),
@@ -77,6 +93,45 @@ def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
     for points, cluster in zip(parts, out):
         def fill(rows: slice, points: np.ndarray = points, cluster: np.ndarray = cluster) -> None:
             cluster[rows] = labels[cells(points, rows)] - 1
+
+        map_blocks(fill, row_blocks(len(points), _ROWS))
+    return out
+
+
+def _split_sparse(parts: Sequence[np.ndarray], cells) -> list[np.ndarray]:
+    """:func:`split_clusters` through the occupied cells only (``cells(points,
+    rows)``: their indices): the same clusters, numbered alike (by their first
+    cell in the order of the rows of a whole grid, as ``ndimage.label``)."""
+    def keys(points: np.ndarray, rows: slice) -> np.ndarray:
+        i, j = cells(points, rows)
+        return np.unique(i * _KEY_ROW + j)
+
+    occupied = np.unique(np.concatenate([np.zeros(0, np.int64)] + [
+        key for points in parts if len(points) for key in map_blocks(
+            lambda rows, points=points: keys(points, rows), row_blocks(len(points), _ROWS))]))
+    # Each occupied cell with its occupied 8-neighbours ahead of it in row order.
+    i, j = np.divmod(occupied, _KEY_ROW)
+    first, second = [], []
+    for di, dj in ((0, 1), (1, -1), (1, 0), (1, 1)):
+        key = (i + di) * _KEY_ROW + (j + dj)
+        at = np.minimum(np.searchsorted(occupied, key), len(occupied) - 1)
+        found = (occupied[at] == key) & (j + dj >= 0)
+        first.append(np.flatnonzero(found))
+        second.append(at[found])
+    first, second = np.concatenate(first), np.concatenate(second)
+    graph = coo_matrix((np.ones(len(first), np.int8), (first, second)), shape=(len(occupied),) * 2)
+    n, component = connected_components(graph, directed=False)
+    # Components numbered by their first cell in row order, as ndimage.label numbers them.
+    first_cell = np.full(n, len(occupied))
+    np.minimum.at(first_cell, component, np.arange(len(occupied)))
+    rank = np.empty(n, np.int32)
+    rank[np.argsort(first_cell)] = np.arange(n, dtype=np.int32)
+    label = rank[component]
+    out = [np.empty(len(points), dtype=np.int32) for points in parts]
+    for points, cluster in zip(parts, out):
+        def fill(rows: slice, points: np.ndarray = points, cluster: np.ndarray = cluster) -> None:
+            i, j = cells(points, rows)
+            cluster[rows] = label[np.searchsorted(occupied, i * _KEY_ROW + j)]
 
         map_blocks(fill, row_blocks(len(points), _ROWS))
     return out

@@ -67,12 +67,21 @@ def describe_crs(crs: pyproj.CRS) -> str:
 def _parse_override(override: str, source: str) -> pyproj.CRS:
     text = override.strip()
     try:
-        return pyproj.CRS.from_user_input(text)
+        crs = pyproj.CRS.from_user_input(text)
     except CRSError as exc:
         raise UrbanvoxError(
             f"The CRS parameter {text!r} given for {source} is not a valid coordinate reference "
             f"system ({exc}). Give an authority code such as EPSG:28992, a WKT string or a PROJ string."
         ) from exc
+    # A bare name is looked up in PROJ's database, closest match first: "foo"
+    # would be Amersfoort, "bar" Barbados 1938. Only the name itself counts.
+    is_name = not any(mark in text for mark in (":", "+", "[", "{", "=")) and not text.isdigit()
+    if is_name and " ".join(crs.name.lower().split()) != " ".join(text.lower().split()):
+        raise UrbanvoxError(
+            f"No coordinate reference system is named {text!r} (the nearest name is {crs.name!r}, "
+            f"{crs.to_string()}). Give an authority code such as EPSG:28992, a WKT string or a PROJ string."
+        )
+    return crs
 
 
 def _linear_axis_factor(crs: pyproj.CRS) -> Optional[float]:

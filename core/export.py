@@ -47,6 +47,35 @@ MESH_FORMATS = (".obj", ".stl", ".ply", ".vtu", ".msh")
 _ROWS = 65536
 
 
+def check_output_path(path: str | Path, suffixes: tuple[str, ...] | None = MESH_FORMATS) -> Path:
+    """``path`` if a file can be written there (by default a mesh, its suffix
+    one of :data:`MESH_FORMATS`; any with ``suffixes`` None), else an
+    :class:`UrbanvoxError` that says why: checked before a run, not after its
+    minutes of work.
+
+    Examples
+    --------
+    >>> check_output_path("/tmp/city.msh").name
+    'city.msh'
+    >>> try:
+    ...     check_output_path("/tmp/city.txt")
+    ... except UrbanvoxError as error:
+    ...     print(error)
+    Unknown mesh format '.txt' (/tmp/city.txt): use one of .obj, .stl, .ply, .vtu, .msh.
+    """
+    path = Path(path)
+    if suffixes is not None and path.suffix.lower() not in suffixes:
+        raise UrbanvoxError(f"Unknown mesh format '{path.suffix}' ({path}): use one of {', '.join(suffixes)}.")
+    folder = path.parent if str(path.parent) else Path(".")
+    if path.is_dir():
+        raise UrbanvoxError(f"{path} is a folder: give a file name in it.")
+    if not folder.is_dir():
+        raise UrbanvoxError(f"The folder {folder} of {path.name} does not exist: create it first.")
+    if not os.access(folder, os.W_OK | os.X_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise UrbanvoxError(f"{path} cannot be written here (no permission).")
+    return path
+
+
 def region_name(region: int) -> str:
     """``block_7``, ``ground``, ``air`` or ``outside``."""
     return f"block_{region}" if region > 0 else REGION_NAMES[region]
@@ -73,12 +102,10 @@ def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray, binary
     triangles : SurfaceModel, optional
         ``model.triangulated()``, when the caller has it.
     """
-    path = Path(path)
+    path = check_output_path(path)
     suffix = path.suffix.lower()
     writers = {".obj": _write_obj, ".stl": _write_stl, ".ply": _write_ply, ".vtu": _write_vtu,
                ".msh": lambda path, tri, world: _write_msh(path, model, tri, world, binary)}
-    if suffix not in writers:
-        raise UrbanvoxError(f"Unknown mesh format '{suffix}': use one of {', '.join(MESH_FORMATS)}.")
     tri = triangles if triangles is not None else model.triangulated()
     world = tri.nodes + np.asarray(offset, dtype=np.float64)
     temporary = path.with_name(f".{path.name}.part")

@@ -40,8 +40,9 @@ runs. numba is imported only when a kernel is first wanted, never at import
 of :mod:`core` (QGIS loads the provider without it), and a numba that fails
 to import or to compile falls back with a warning, never an error.
 
-Compiled code is cached on disk (:func:`cache_dir`): the first run on a
-machine compiles for a few seconds, later runs and processes load it. The
+Compiled code is cached on disk (:func:`cache_dir`): the first run of an
+install compiles what it calls (all the kernels: about 70 s on two cores),
+later runs and processes load it. The
 cache is kept apart for each name the package is imported under (``core`` in
 the tests, ``urbanvox.core`` in QGIS): numba's own cache, one per source
 file, stores the module's import name, and the other name fails to load it.

@@ -26,6 +26,8 @@ before anything is written.
 """
 from __future__ import annotations
 
+import math
+import numbers
 import os
 import time
 from dataclasses import dataclass, replace
@@ -43,7 +45,7 @@ from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
-from .grid import GridWindow, available_memory, check_face_memory, check_memory
+from .grid import GridWindow, available_memory, check_face_memory, check_memory, sparse_points_warning
 from .ground import GroundLevel, NearGround, column_ground_level
 from .heap import THREAD_HEAP_FRESH, fault_in_ahead, reusing_freed_memory, use_array_heap_here
 from .manifold import make_well_composed, repair_height_field
@@ -53,6 +55,7 @@ from .parallel import in_background
 from .progress import CancelCheck, Progress, Text, part
 from .project import COLUMN_VOXELS, project_nodes
 from .reconstruction import NO_BLOCK, Reconstruction
+from .sampling import check_sample_memory
 from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
 from .tiles import TileOptions, reconstruct_tiled
@@ -129,6 +132,28 @@ class ReconstructionParams:
     extent: tuple[float, float, float, float] | None = None
     max_memory: int | None = None
 
+    def __post_init__(self) -> None:
+        """Refuse values that are no number or out of range (a ``voxel_size`` of
+        zero has its own message at the run), rather than runs that go wrong."""
+        for name in ("voxel_size", "min_height", "min_footprint", "min_volume", "support", "max_roof_hole_area",
+                     "quality_threshold", "max_projection_angle"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                raise UrbanvoxError(f"The parameter {name} must be a number (got {value!r}).")
+        for name in ("min_height", "min_footprint", "min_volume", "support", "max_roof_hole_area"):
+            if not 0 <= getattr(self, name) < math.inf:
+                raise UrbanvoxError(f"The parameter {name} must be a number of 0 or more (got {getattr(self, name)}).")
+        if isinstance(self.smoothing_iterations, bool) or not isinstance(self.smoothing_iterations, numbers.Integral) \
+                or self.smoothing_iterations < 0:
+            raise UrbanvoxError(f"The smoothing passes must be a whole number of 0 or more "
+                                f"(got {self.smoothing_iterations!r}).")
+        if not 0 <= self.quality_threshold < 1:
+            raise UrbanvoxError(f"The minimum face quality must be at least 0 and below 1 "
+                                f"(got {self.quality_threshold}).")
+        if not 0 < self.max_projection_angle <= 90:
+            raise UrbanvoxError(f"The largest projection angle must be above 0 and at most 90 degrees "
+                                f"(got {self.max_projection_angle}).")
+
 
 @reusing_freed_memory()
 def reconstruct_point_cloud(paths: str | Path | Sequence[str | Path], *, crs: str | None = None,
@@ -203,6 +228,8 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     report(0.0, "Reading mesh")
     crs_obj, triangles, ground_triangles, warnings = read_surfaces(path, crs, ground_path, lod, is_cancelled)
     unit = metres_per_unit(crs_obj)
+    check_sample_memory([mesh.corners() for mesh in (triangles, ground_triangles) if mesh is not None],
+                        params.voxel_size / unit / 3, params.voxel_size, params.max_memory or available_memory(), unit)
     report(MESH_READ_SHARE, "Sampling triangles")
     ground, building = sample_surfaces(triangles, ground_triangles, params.voxel_size / unit, unit, is_cancelled,
                                        part(report, MESH_READ_SHARE, MESH_SAMPLE_SHARE))
@@ -363,11 +390,19 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     ground = _finite(ground, "ground", warnings)
     building = _finite(building, "building", warnings)
     if params.extent is not None:
+        unclipped = ground, building
         ground = _inside(ground, params.extent)
         building = _inside(building, params.extent)
+        if len(unclipped[0]) and len(ground) == 0:
+            raise UrbanvoxError(
+                f"No ground point lies inside the extent {_extent_text(params.extent)} (EXTENT); the data cover "
+                f"{_extent_text(_extent_of(*unclipped))}"
+                + (f", and the extent holds {len(building)} building points only: it lies under a roof."
+                   if len(building) else ": the extent misses them (in another CRS?).")
+                + " Give an extent over the data, with ground around the buildings.")
     if len(ground) == 0:
-        raise UrbanvoxError("No ground point: check the ground classes (GROUND_CLASSES) "
-                            "or give a ground mesh.")
+        raise UrbanvoxError("No ground point: check the ground classes (GROUND_CLASSES)." if airborne else
+                            "No ground: the mesh has no ground faces and no base points; give a ground mesh.")
     if split and params.extent is None and len(building):
         ground_cluster, building_cluster = split_clusters([ground, building], max(50.0 / m, 20 * h))
         if ground_cluster.max() > 0 or building_cluster.max() > 0:
@@ -425,6 +460,10 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     level = ground_level if ground_level is not None else column_ground_level(grid, ground)
     top_k = repair_height_field(level.top_k)
     building_cells = grid.occupied_cells(building)
+    if airborne and len(building_cells):
+        sparse = sparse_points_warning(len(building), building_cells, params.voxel_size)
+        if sparse:
+            warnings.append(sparse)
     lap("ground")
 
     report(STEP_STARTS["classify"], "Sorting voxels into ground, building and air")
@@ -609,8 +648,25 @@ def _inside(points: np.ndarray, extent) -> np.ndarray:
     return points.compress(keep, axis=0)
 
 
+def _extent_of(*parts: np.ndarray) -> tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) of the points of every part (some may be empty)."""
+    present = [p for p in parts if len(p)]
+    low = np.min([p[:, :2].min(axis=0) for p in present], axis=0)
+    high = np.max([p[:, :2].max(axis=0) for p in present], axis=0)
+    return float(low[0]), float(low[1]), float(high[0]), float(high[1])
+
+
+def _extent_text(extent) -> str:
+    xmin, ymin, xmax, ymax = (float(v) for v in extent)
+    return f"x {xmin:.2f} to {xmax:.2f}, y {ymin:.2f} to {ymax:.2f}"
+
+
 def _finite(points: np.ndarray, what: str, warnings: list[str]) -> np.ndarray:
-    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    points = np.asarray(points, dtype=np.float64)
+    if points.size == 0:
+        return points.reshape(0, 3)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise UrbanvoxError(f"The {what} points must be an array of (x, y, z) rows, got shape {points.shape}.")
     if all_finite(points):  # the usual case, in a sixth of the time of the rows' mask
         return points
     ok = finite_rows(points)

@@ -25,13 +25,18 @@ Example
 
 from __future__ import annotations
 
-from typing import Callable, Iterator
+from typing import Callable, Iterator, Sequence
 
 import numpy as np
 
 from . import jit
 from .errors import Cancelled, UrbanvoxError
+from .grid import rounded_up
 from .topology import run_starts, sorted_unique
+
+#: Bytes per point of :func:`sample_thinned` while its chunks' cells are merged
+#: (the cells' keys, sums and counts, their sort, the means).
+THINNED_POINT_BYTES = 80
 
 __all__ = ["refinement", "lattice", "estimate_sample_count", "iter_sample_triangles", "sample_triangles",
            "sample_thinned"]
@@ -74,9 +79,21 @@ def lattice(n: int) -> np.ndarray:
            [0., 1., 0.],
            [1., 0., 0.]])
     """
-    a, b = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
-    inside = a + b <= n
-    a, b = a[inside], b[inside]
+    return lattice_rows(n, 0, n + 1)
+
+
+def lattice_rows(n: int, first: int, stop: int) -> np.ndarray:
+    """The rows ``first <= a < stop`` of :func:`lattice(n) <lattice>`, in its order.
+
+    Example
+    -------
+    >>> lattice_rows(2, 1, 3).tolist() == lattice(2)[3:].tolist()
+    True
+    """
+    rows = np.arange(first, stop)
+    lengths = n + 1 - rows  # b = 0 .. n - a
+    a = np.repeat(rows, lengths)
+    b = np.arange(len(a)) - np.repeat(np.cumsum(lengths) - lengths, lengths)
     return np.stack([a, b, n - a - b], axis=1).astype(np.float64) / n
 
 
@@ -117,8 +134,18 @@ def iter_sample_triangles(corners: np.ndarray, spacing: float, chunk_points: int
     order = np.argsort(group, kind="stable")
     bounds = np.searchsorted(group[order], np.arange(len(levels) + 1))
     for g, level in enumerate(levels):
-        weights = lattice(int(level))
         members = order[bounds[g] : bounds[g + 1]]
+        if (level + 1) * (level + 2) // 2 > chunk_points:
+            # One triangle's lattice is more than a chunk (a ground of two
+            # triangles a kilometre wide: 10^8 points at 1 m voxels): its
+            # points in bands of rows, the same points in the same order.
+            rows = max(1, int(chunk_points) // (int(level) + 1))
+            for triangle in members:
+                for first in range(0, int(level) + 1, rows):
+                    weights = lattice_rows(int(level), first, min(first + rows, int(level) + 1))
+                    yield np.matmul(weights, corners[triangle : triangle + 1]).reshape(-1, 3)
+            continue
+        weights = lattice(int(level))
         per_chunk = max(1, int(chunk_points) // len(weights))
         for start in range(0, len(members), per_chunk):
             tri = corners[members[start : start + per_chunk]]
@@ -190,7 +217,8 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
     low = np.floor(corners.reshape(-1, 3).min(axis=0) / cell).astype(np.int64)
     span = np.floor(corners.reshape(-1, 3).max(axis=0) / cell).astype(np.int64) - low + 1
     if np.any(span >= 2**21):
-        raise UrbanvoxError(f"The mesh spans more than {2**21 * cell:.0f} units: split it into tiles.")
+        raise UrbanvoxError(f"The mesh spans {float(span.max() * cell):.4g} units, more than 2^21 sample cells of "
+                            f"{cell:.4g} (a third of a voxel): use a larger voxel size, or split the mesh.")
     parts = []
     # The work is all the samples, however the chunks cut it: the compiled
     # pass (core.jit) loads for many samples from the first chunk on.
@@ -210,6 +238,48 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
     total = np.bincount(inverse, weights=counts)
     merged = np.column_stack([np.bincount(inverse, weights=sums[:, c]) for c in range(3)])
     return merged / total[:, None]
+
+
+def check_sample_memory(corner_sets: Sequence[np.ndarray], cell: float, voxel_size: float,
+                        available: int, unit: float = 1.0) -> int:
+    """Estimate the bytes of :func:`sample_thinned`'s points over triangles of
+    every corner set (a mesh's buildings, its ground); refuse before sampling
+    if more than ``available``, with the voxel size that fits.
+
+    A surface of area A fills at least A / (1.5 cell^2) cells of side ``cell``
+    (a plane cuts a cube in at most 1.3 of its face's area): a point each,
+    :data:`THINNED_POINT_BYTES` bytes while the chunks' cells are merged.
+    A voxel far too small for the mesh (a 20 m box at 1 mm: 10^10 points)
+    stops here, before the samples' hours of work, not at the grid's guard
+    after them.
+
+    Examples
+    --------
+    >>> box = np.array([[[0.0, 0, 0], [20, 0, 0], [0, 20, 0]]])
+    >>> check_sample_memory([box], 1 / 3, 1.0, available=10**9)
+    96000
+    >>> try:
+    ...     check_sample_memory([box], 1e-3 / 3, 1e-3, available=10**9)
+    ... except UrbanvoxError as error:
+    ...     print(error)
+    The mesh's 200 m² of surface at a voxel size of 0.001 need about 89.41 GiB of sample points
+    but only 0.93 GiB is available. Use a voxel size of at least 0.011, or a smaller area.
+    """
+    area = 0.0
+    for corners in corner_sets:
+        corners = np.asarray(corners, dtype=np.float64).reshape(-1, 3, 3)
+        area += 0.5 * float(np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]),
+                                           axis=1).sum())
+    if not (np.isfinite(cell) and cell > 0):
+        return 0  # the voxel size is refused with its own message
+    needed = int(area / (1.5 * cell**2) * THINNED_POINT_BYTES)
+    if needed > available:
+        suggestion = rounded_up(voxel_size * (needed / available) ** 0.5 * 1.05)
+        raise UrbanvoxError(
+            f"The mesh's {area * unit**2:.0f} m² of surface at a voxel size of {voxel_size:g} need about "
+            f"{needed / 2**30:.2f} GiB of sample points but only {available / 2**30:.2f} GiB is available. "
+            f"Use a voxel size of at least {suggestion:g}, or a smaller area.")
+    return needed
 
 
 def _cell_means(points: np.ndarray, cell: float, low: np.ndarray, work: int):

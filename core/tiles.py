@@ -44,7 +44,7 @@ import numpy as np
 from . import jit
 from .blocks import BlockTable
 from .errors import UrbanvoxError
-from .grid import BIN_CHUNK, GridWindow, available_memory
+from .grid import BIN_CHUNK, GridWindow, available_memory, check_column_memory
 from .heap import give_back
 from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
@@ -334,6 +334,7 @@ def reconstruct_tiled(ground: np.ndarray, building: np.ndarray, crs, params, air
     m = metres_per_unit(crs)
     h = params.voxel_size / m
     tile, halo = options.columns(params.voxel_size)
+    check_column_memory(domain.shape[:2], params.voxel_size, params.max_memory)
     cores = plan_tiles(domain.shape, tile)
     check_copy_keys(domain, len(cores))  # before the tiles run, not at their merge
     # The ground level is a 2-D field, small next to the grid: computed once for

@@ -206,6 +206,14 @@ def test_the_transform_is_applied_and_a_file_without_crs_needs_the_parameter(tmp
     ('{"type": "CityJSON", "CityObjects": {"b": {"type": "Building", "geometry": [{"type": "Solid", '
      '"lod": "2", "boundaries": [[0, 1, 2]]}]}}, "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]]}',
      r"not nested as its geometry type says"),
+    ('{"type": "CityJSON", "CityObjects": {"b": "a string"}, "vertices": [[0, 0, 0]]}',
+     r"city object 'b' is not an object with a list of geometries"),
+    ('{"type": "CityJSON", "CityObjects": {"b": {"type": "Building", "geometry": ["x"]}}, "vertices": [[0, 0, 0]]}',
+     r"city object 'b' is not an object with a list of geometries"),
+    ('{"type": "CityJSON", "transform": [1, 2], "CityObjects": {}, "vertices": [[0, 0, 0]]}',
+     r"the transform is not"),
+    ('{"type": "CityJSON", "transform": {"scale": "abc"}, "CityObjects": {}, "vertices": [[0, 0, 0]]}',
+     r"the transform is not"),
 ])
 def test_bad_files_get_a_clear_error(tmp_path, content, message):
     path = tmp_path / "bad.json"
@@ -214,6 +222,24 @@ def test_bad_files_get_a_clear_error(tmp_path, content, message):
         read_cityjson(path)
     with pytest.raises(UrbanvoxError, match="does not exist"):
         read_cityjson(tmp_path / "missing.json")
+
+
+def test_surfaces_with_a_null_vertex_are_dropped_with_a_warning(tmp_path):
+    """A vertex written null (NaN) or beyond a float: the surfaces using it are
+    left out, with a warning, and the rest of the building is read."""
+    v1, faces1 = _box(0, 0, 10, 10, 6)
+    v2, faces2 = _box(20, 0, 30, 8, 9, start=8)
+    v2[6] = [30, 8, None]  # the top of the second box loses a vertex: its roof and two walls
+    objects = {"b1": {"type": "Building", "geometry": [{"type": "MultiSurface", "lod": "2", "boundaries": faces1}]},
+               "b2": {"type": "Building", "geometry": [{"type": "MultiSurface", "lod": "2", "boundaries": faces2}]}}
+    city = read_cityjson(_write(tmp_path / "null.json", objects, v1 + v2))
+    assert any("dropped 3 surfaces with a vertex that is not a number" in w for w in city.warnings)
+    assert np.isfinite(city.buildings.vertices).all()
+    assert _areas(city.buildings.vertices, city.buildings.faces).sum() == pytest.approx(
+        2 * 100 + 4 * 60 + 10 * 8 + 10 * 9 + 8 * 9)  # box 1 whole; box 2's floor and the walls without the vertex
+    only = {"b": {"type": "Building", "geometry": [{"type": "MultiSurface", "lod": "2", "boundaries": [[[0, 1, 2]]]}]}}
+    with pytest.raises(UrbanvoxError, match="not a number"):
+        read_cityjson(_write(tmp_path / "all.json", only, [[0, 0, 0], [1, 0, None], [0, 1, 0]]))
 
 
 def test_reading_honours_cancel(tmp_path):

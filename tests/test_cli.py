@@ -63,3 +63,20 @@ def test_a_cityjson_house_without_two_walls_is_filled_with_the_flag(tmp_path):
 def test_missing_file_is_an_error_not_a_traceback(tmp_path):
     done = run(tmp_path / "nothing.laz")
     assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+
+
+@pytest.mark.parametrize("flag, name, says", [
+    ("--mesh", "missing/city.msh", "does not exist"),
+    ("--mesh", "city.txt", "Unknown mesh format '.txt'"),
+    ("--mesh", "folder", "Unknown mesh format"),
+    ("--report", "missing/report.json", "does not exist"),
+    ("--report", "folder", "is a folder"),
+    ("--smoothing", "-1", "smoothing passes"),
+])
+def test_outputs_that_cannot_be_written_stop_the_run_before_it_starts(district, tmp_path, flag, name, says):
+    """A bad output path is an error at once (not after the run), without a traceback, and writes nothing."""
+    (tmp_path / "folder").mkdir()
+    done = run(district.laz, "--voxel-size", 2, flag, name if flag == "--smoothing" else tmp_path / name, "--quiet")
+    assert done.returncode == 2 and says in done.stderr and "Traceback" not in done.stderr
+    assert "blocks," not in done.stdout  # no run
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"] and not any((tmp_path / "folder").iterdir())

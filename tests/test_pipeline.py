@@ -5,6 +5,7 @@ once per session and checks blocks, volumes, topology, conformity, quality,
 distances and normals against :mod:`core.synthetic`'s truth.
 """
 import numpy as np
+import pyproj
 import pytest
 import shapely
 from scipy.spatial import cKDTree
@@ -234,7 +235,8 @@ def test_projection_and_measures_move_the_bar_block_by_block_with_the_same_model
     small = reconstruct_point_cloud(district.laz, params=params, progress=lambda f, m: seen.append((f, m)))
     fractions = [f for f, _ in seen]
     assert fractions == sorted(fractions)
-    for message in ("Projecting block nodes: nearest data points", "Projecting block nodes: moving-least-squares planes",
+    for message in ("Projecting block nodes: nearest data points",
+                    "Projecting block nodes: moving-least-squares planes",
                     "Projecting ground nodes: nearest data points",
                     "Projecting ground nodes: moving-least-squares planes", "Measuring the blocks"):
         assert len({f for f, m in seen if m == message}) >= 5, message
@@ -286,6 +288,51 @@ def test_non_finite_points_are_dropped_with_a_warning():
     assert warnings == ["Ignored 3 ground points with non-finite coordinates."]
     huge = np.full((4, 3), 1e308)  # a sum that overflows: every number is still finite
     assert len(_finite(huge, "ground", warnings)) == 4 and len(warnings) == 1
+
+
+def test_an_extent_without_ground_says_where_the_data_are(district):
+    """An extent beside the data, or under a roof, is named with the data's
+    own extent, not blamed on the ground classes."""
+    from core.pipeline import reconstruct_points
+    from core.readers.las import read_point_clouds
+
+    points = read_point_clouds([district.laz])
+    x0, y0 = points.ground[:, :2].min(axis=0)
+    with pytest.raises(UrbanvoxError, match=r"No ground point lies inside the extent .* misses them") as error:
+        reconstruct_points(points.ground, points.building, points.crs,
+                           ReconstructionParams(voxel_size=2.0, extent=(0.0, 0.0, 10.0, 10.0)), airborne=True)
+    assert f"{x0:.2f}" in str(error.value) and "GROUND_CLASSES" not in str(error.value)
+    roof = points.building[np.argmax(points.building[:, 2])]  # a point of the highest roof, well inside its block
+    with pytest.raises(UrbanvoxError, match="under a roof"):
+        reconstruct_points(points.ground, points.building, points.crs,
+                           ReconstructionParams(voxel_size=2.0, extent=(roof[0] - 0.2, roof[1] - 0.2,
+                                                                        roof[0] + 0.2, roof[1] + 0.2)),
+                           airborne=True)
+
+
+@pytest.mark.parametrize("values, says", [
+    ({"voxel_size": "1"}, "voxel_size must be a number"),
+    ({"support": float("nan")}, "support must be a number of 0 or more"),
+    ({"min_height": -1.0}, "min_height must be a number of 0 or more"),
+    ({"smoothing_iterations": -1}, "smoothing passes must be a whole number"),
+    ({"smoothing_iterations": 1.5}, "smoothing passes must be a whole number"),
+    ({"quality_threshold": 1.0}, "minimum face quality"),
+    ({"max_projection_angle": 0.0}, "largest projection angle"),
+])
+def test_parameters_out_of_range_are_refused_when_made(values, says):
+    with pytest.raises(UrbanvoxError, match=says):
+        ReconstructionParams(**values)
+    ReconstructionParams(smoothing_iterations=np.int64(2), support=np.float32(0.6))  # numpy numbers are numbers
+
+
+def test_point_arrays_of_another_shape_are_refused():
+    """(N, 2) or (N, 4) arrays are no (x, y, z) rows: refused, not reshaped into scrambled points."""
+    from core.pipeline import reconstruct_points
+
+    good = np.zeros((10, 3))
+    for bad in (np.zeros((12, 2)), np.zeros((12, 4))):
+        with pytest.raises(UrbanvoxError, match=r"\(x, y, z\) rows, got shape"):
+            reconstruct_points(bad, good, pyproj.CRS("EPSG:28992"), ReconstructionParams(voxel_size=1.0), airborne=True)
 
 
 def test_clusters_move_the_progress_bar_by_their_points(district):

@@ -7,6 +7,7 @@ used when present and the tests skip cleanly otherwise.
 from __future__ import annotations
 
 import glob
+import struct
 import time
 from pathlib import Path
 
@@ -111,6 +112,17 @@ def test_resolve_crs_geocentric_and_invalid_rejected():
         resolve_crs(None, "EPSG:999999", "a.laz")
     with pytest.raises(UrbanvoxError, match="EPSG:28992"):
         resolve_crs(None, "bogus", "a.laz")
+
+
+def test_a_crs_name_must_be_the_name_not_its_nearest_match():
+    """PROJ takes "foo" for Amersfoort and "bar" for Barbados 1938: refused, naming the match;
+    a CRS's own name (any case and spacing) is taken."""
+    for word in ("foo", "bar"):
+        with pytest.raises(UrbanvoxError, match="No coordinate reference system is named"):
+            resolve_crs(None, word, "a.laz")
+    assert resolve_crs(None, "amersfoort /  RD New", "a.laz").to_epsg() == 28992
+    assert resolve_crs(None, "epsg:2154", "a.laz").to_epsg() == 2154
+    assert resolve_crs(None, "28992", "a.laz").to_epsg() == 28992
 
 
 def test_resolve_crs_compound_uses_horizontal_part():
@@ -301,6 +313,26 @@ def test_withheld_points_dropped(tmp_path):
     pts = read_point_clouds(write_las(tmp_path / "w.las", xyz, classes, crs="EPSG:28992", withheld=withheld))
     assert len(pts.ground) == (classes == 2).sum() - 5
     assert any("withheld" in w for w in pts.warnings)
+
+
+def test_all_ground_withheld_says_so(tmp_path):
+    """Withheld ground points are dropped: the message says they were there, not that the class is absent."""
+    xyz, classes = town()
+    path = write_las(tmp_path / "w.las", xyz, classes, crs="EPSG:28992", withheld=(classes == 2).astype(np.uint8))
+    with pytest.raises(UrbanvoxError, match=r"once the (\d+) points flagged 'withheld'"):
+        read_point_clouds(path)
+
+
+def test_a_zero_scale_in_the_header_is_refused(tmp_path):
+    """A scale of zero puts every point at the offset on that axis: a corrupt
+    header, refused rather than a model of one line (a 1-voxel-wide block)."""
+    xyz, classes = town()
+    path = write_las(tmp_path / "z.las", xyz, classes, crs="EPSG:28992")
+    raw = bytearray(path.read_bytes())
+    struct.pack_into("<d", raw, 131, 0.0)  # the x scale (LAS header offset 131)
+    path.write_bytes(bytes(raw))
+    with pytest.raises(UrbanvoxError, match="scales .* include zero"):
+        read_point_clouds(path)
 
 
 @pytest.mark.parametrize("version, fmt", [("1.2", 1), ("1.4", 6)])

@@ -37,6 +37,23 @@ def test_point_cloud_files(shared_data, name):
     check_model(result)
 
 
+def test_voxels_too_small_for_the_points_are_said_with_a_size_that_fits(shared_data):
+    """Delft's AHN3 file has about one building point per roof voxel at 0.5 m:
+    no warning there; at 0.35 m most roof voxels see none, and the warning
+    suggests a size near the 0.7 m where two points fall in each."""
+    path = shared_data / POINT_CLOUDS["delft"][0]
+    if not path.exists():
+        pytest.skip("real test data not available")
+    sparse = [w for w in reconstruct_point_cloud(path, crs="EPSG:28992", params=ReconstructionParams(voxel_size=0.5))
+              .warnings if "sparse" in w]
+    assert sparse == []
+    said = [w for w in reconstruct_point_cloud(path, crs="EPSG:28992", params=ReconstructionParams(voxel_size=0.35))
+            .warnings if "sparse" in w]
+    assert len(said) == 1 and "voxels of 0.35 m" in said[0]
+    suggested = float(said[0].split("Voxels of at least ")[1].split(" m")[0])
+    assert 0.6 <= suggested <= 0.8
+
+
 def test_montpellier_tiles_read_as_one_collection(shared_data):
     tiles = sorted((shared_data / "montpellier_ign").glob("*.laz"))
     assert len(tiles) == 6

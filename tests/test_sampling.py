@@ -193,3 +193,30 @@ def test_thinned_sampling_reports_the_share_of_samples_made():
     fractions = np.array(seen)
     assert len(fractions) >= 7 and np.all(np.diff(fractions) > 0) and fractions[-1] == pytest.approx(1.0)
     assert np.array_equal(points, sample_thinned(corners, 0.2, 0.5, chunk_points=total // 7))
+
+
+def test_a_triangle_larger_than_a_chunk_is_sampled_in_bands_of_its_rows():
+    """A ground of one triangle a kilometre wide at 0.1 m spacing is 10^8
+    points: its lattice comes in bands of rows no larger than a chunk, the
+    same points in the same order as whole."""
+    from core.sampling import lattice_rows
+
+    corners = np.concatenate([random_triangles(3, seed=8, scale=40.0), random_triangles(20, seed=9, scale=2.0)])
+    whole = list(iter_sample_triangles(corners, 0.5, chunk_points=10**9))
+    assert max(len(c) for c in whole) > 2000  # the three large triangles' lattices
+    chunks = list(iter_sample_triangles(corners, 0.5, chunk_points=400))
+    assert max(len(c) for c in chunks) <= 400
+    np.testing.assert_array_equal(np.concatenate(chunks), np.concatenate(whole))
+    for n in (1, 4, 13):
+        np.testing.assert_array_equal(np.concatenate([lattice_rows(n, a, a + 1) for a in range(n + 1)]), lattice(n))
+
+
+def test_a_voxel_far_too_small_for_a_mesh_is_refused_before_sampling(district):
+    """A 1 mm voxel on the district's mesh: hours of samples and terabytes;
+    refused at once with the voxel size that fits."""
+    from core.pipeline import ReconstructionParams, reconstruct_mesh
+
+    start = time.perf_counter()
+    with pytest.raises(UrbanvoxError, match=r"sample points .* voxel size of at least (\d|\.)+"):
+        reconstruct_mesh(district.stl, crs=district.crs, params=ReconstructionParams(voxel_size=0.001))
+    assert time.perf_counter() - start < 30

@@ -183,10 +183,31 @@ def test_bad_tile_size_is_refused(district):
 
 def test_memory_guard_suggests_a_tile_size():
     with pytest.raises(UrbanvoxError, match=r"tiles of at most (\d+) \(TILE_SIZE\)") as error:
-        check_memory((20000, 20000, 100), 1.0, available=4 * 2**30, tile_hint=True)
+        check_memory((6000, 6000, 100), 1.0, available=4 * 2**30, tile_hint=True)
     side = float(error.value.args[0].split("tiles of at most ")[1].split(" ")[0])
     # The suggested tile, with a halo of 12 voxels on each side, fits.
     check_memory((int(side) + 24, int(side) + 24, 100), 1.0, available=4 * 2**30)
+
+
+def test_memory_guard_suggests_tiles_only_where_they_would_fit():
+    """No tiles narrower than a few halos (a tiny voxel on tall data), none
+    where the domain's columns alone exceed the memory; a count of voxels
+    beyond int64 is still refused (it wrapped negative and let the run on)."""
+    with pytest.raises(UrbanvoxError) as error:
+        check_memory((6000001, 5999001, 1008203), 1e-5, available=4 * 2**30, tile_hint=True)
+    assert "TILE_SIZE" not in str(error.value) and "voxel size of at least" in str(error.value)
+    with pytest.raises(UrbanvoxError) as error:  # 10^12 columns: their ground level alone is terabytes
+        check_memory((10**6, 10**6, 40), 1.0, available=4 * 2**30, tile_hint=True)
+    assert "TILE_SIZE" not in str(error.value)
+
+
+def test_a_tiled_domain_too_wide_for_its_columns_is_refused_before_allocating(district):
+    from core.grid import check_column_memory
+
+    params = ReconstructionParams(voxel_size=2.0, max_memory=2**16)  # 64 kiB: the district's columns need more
+    with pytest.raises(UrbanvoxError, match="ground level alone"):
+        reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=40.0))
+    assert check_column_memory((100, 100), 2.0, available=2**20) == 640000
 
 
 def test_plan_and_initial_windows_cover_the_domain():

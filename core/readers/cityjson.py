@@ -152,9 +152,12 @@ def read_cityjson(path: "str | os.PathLike[str]", is_cancelled: Optional[Callabl
         vertices.append(_vertices(document, header, path))
         own = (first_vertex, len(vertices[-1]))
         for object_id, city_object in document["CityObjects"].items():  # objects, not faces
+            geometries = (city_object.get("geometry") or []) if isinstance(city_object, dict) else None
+            if not isinstance(geometries, list) or not all(isinstance(g, dict) for g in geometries):
+                raise UrbanvoxError(f"{path}: the city object {object_id!r} is not an object with a list of "
+                                    "geometries; the file is damaged.")
             kind = city_object.get("type", "")
             role = "building" if kind in BUILDING_TYPES else "terrain" if kind in TERRAIN_TYPES else None
-            geometries = city_object.get("geometry") or []
             if role is None:
                 left_out[kind] += len(geometries)
                 continue
@@ -243,8 +246,13 @@ def _vertices(document: dict, header: dict, path: str) -> np.ndarray:
         raise UrbanvoxError(f"{path}: vertices that are not [x, y, z]; the file is damaged.")
     transform = header.get("transform")
     if transform:
-        vertices = vertices * np.asarray(transform.get("scale", (1, 1, 1)), dtype=np.float64) \
-            + np.asarray(transform.get("translate", (0, 0, 0)), dtype=np.float64)
+        try:
+            scale = np.asarray(transform.get("scale", (1, 1, 1)), dtype=np.float64).reshape(3)
+            translate = np.asarray(transform.get("translate", (0, 0, 0)), dtype=np.float64).reshape(3)
+        except (AttributeError, TypeError, ValueError) as exc:
+            raise UrbanvoxError(f"{path}: the transform is not {{\"scale\": [3 numbers], \"translate\": "
+                                f"[3 numbers]}} ({exc}); the file is damaged.") from exc
+        vertices = vertices * scale + translate
     return vertices
 
 
@@ -299,11 +307,30 @@ def _triangles(vertices: np.ndarray, geometries: list, path: str,
                             f"{int(document_size[of_geometry[outside[0]]])} vertices; the file is damaged.")
     index = index + first_vertex[of_geometry]
     check_cancel(is_cancelled)
+    surface_owner = None if owner is None else np.repeat(owner, surface_counts)
+    # A vertex given as null (NaN) or beyond a float: the surfaces that use it are dropped, as a mesh's faces.
+    dropped = 0
+    non_finite = ~np.isfinite(vertices).all(axis=1)
+    if non_finite.any():
+        ring_of_point = np.repeat(np.arange(len(ring_sizes)), ring_sizes)
+        bad_ring = np.bincount(ring_of_point, weights=non_finite[index], minlength=len(ring_sizes)) > 0
+        surface_of_ring = np.repeat(np.arange(len(ring_counts)), ring_counts)
+        bad_surface = np.bincount(surface_of_ring, weights=bad_ring, minlength=len(ring_counts)) > 0
+        kept_ring = ~bad_surface[surface_of_ring]
+        index = index[kept_ring[ring_of_point]]
+        ring_sizes, ring_counts = ring_sizes[kept_ring], ring_counts[~bad_surface]
+        surface_owner = None if surface_owner is None else surface_owner[~bad_surface]
+        dropped = int(bad_surface.sum())
     all_vertices, faces, polygon = triangulate_polygons(vertices, index, ring_sizes, ring_counts)
     if len(faces) == 0:
-        raise UrbanvoxError(f"{path}: no surface has an area (every polygon is degenerate).")
-    face_owner = None if owner is None else np.repeat(owner, surface_counts).take(polygon)
-    return clean_triangles(all_vertices, faces, path, is_cancelled, face_owner, owner_ids)
+        raise UrbanvoxError(f"{path}: no surface has an area (every polygon is degenerate"
+                            f"{' or has a vertex that is not a number' if dropped else ''}).")
+    face_owner = None if surface_owner is None else surface_owner.take(polygon)
+    triangles = clean_triangles(all_vertices, faces, path, is_cancelled, face_owner, owner_ids)
+    if dropped:
+        triangles.warnings.append(f"{os.path.basename(path)}: dropped {dropped} surfaces with a vertex that is not a "
+                                  "number (null, NaN or infinite).")
+    return triangles
 
 
 def _reference_system(metadata: dict, path: str, warnings: list):

@@ -339,6 +339,13 @@ def _read_file(
     header = reader.header
     scales = np.asarray(header.scales, dtype=np.float64)
     offsets = np.asarray(header.offsets, dtype=np.float64)
+    if (scales == 0).any():
+        # Every point at the offset on that axis: a corrupt header, which
+        # would give a silently wrong model.
+        raise UrbanvoxError(
+            f"{path}: the header's scales {scales.tolist()} include zero, so every coordinate "
+            "on that axis is the same; the header is corrupt: repair the file (e.g. 'pdal translate' with "
+            "explicit scale/offset) and try again.")
     kind = point_kinds(ground_codes, building_codes)
     # x * scale + offset of an int32 x is finite for every x when the largest
     # magnitude it can reach is: then no chunk needs a look for NaN or inf.
@@ -512,6 +519,13 @@ def read_point_clouds(
             f"All {n_bad} ground/building points have non-finite (NaN/inf) coordinates, so the header's "
             "scale or offset is corrupt; repair the file (e.g. 'pdal translate' with explicit "
             "scale/offset) and try again."
+        )
+    if len(ground_xyz) == 0 and n_withheld:
+        raise UrbanvoxError(
+            f"No point of the ground classes {list(ground)} is left in {len(files)} file(s) once the "
+            f"{n_withheld} points flagged 'withheld' (deleted, per the LAS specification) are dropped. "
+            f"Classes present, withheld points included: {listing}. Clear the withheld flag of the points "
+            "to keep (e.g. PDAL filters.assign), or set GROUND_CLASSES to the ground code(s) of your data."
         )
     if len(ground_xyz) == 0:
         raise UrbanvoxError(
