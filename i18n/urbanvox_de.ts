@@ -128,8 +128,8 @@
       <translation>Blöcke mit kleinerem Volumen (m³) werden verworfen.</translation>
     </message>
     <message>
-      <source>The domain: data outside is ignored, and blocks crossing its edge are closed on it. Default: the extent of the data. Give it in the data's CRS.</source>
-      <translation>Das Gebiet: Daten außerhalb werden ignoriert, Blöcke über seinen Rand werden dort geschlossen. Standard: die Ausdehnung der Daten. Im KBS der Daten angeben.</translation>
+      <source>The domain: data outside is ignored, and blocks crossing its edge are closed on it. Default: the extent of the data. An extent in another CRS than the data's (drawn on a map, or typed with its CRS, e.g. [EPSG:4326]) is transformed into the data's, as its bounding box.</source>
+      <translation>Das Gebiet: Daten außerhalb werden ignoriert, und Blöcke, die seinen Rand überschreiten, werden dort geschlossen. Standard: die Ausdehnung der Daten. Eine Ausdehnung in einem anderen KBS als dem der Daten (auf einer Karte gezeichnet oder mit ihrem KBS eingegeben, z. B. [EPSG:4326]) wird in das der Daten transformiert, als ihr umschließendes Rechteck.</translation>
     </message>
     <message>
       <source>Vertex-only Catmull-Clark passes over the voxel surfaces (the paper uses 3); 0 keeps the voxel faces.</source>
@@ -268,12 +268,44 @@
       <translation>Abgebrochen; keine Ausgabe wurde geschrieben.</translation>
     </message>
     <message>
+      <source>Could not connect to the Dask scheduler at {} ({}). Check that the scheduler is running and reachable at that address (tcp://host:port, by default port 8786), or leave the Dask scheduler address empty to run the tiles on local workers.</source>
+      <translation>Keine Verbindung zum Dask-Scheduler unter {} ({}). Prüfen Sie, dass der Scheduler läuft und unter dieser Adresse erreichbar ist (tcp://Host:Port, standardmäßig Port 8786), oder lassen Sie die Adresse des Dask-Schedulers leer, um die Kacheln mit lokalen Worker-Prozessen zu berechnen.</translation>
+    </message>
+    <message>
+      <source>{} building blocks, total volume {:.1f} m³.</source>
+      <translation>{} Gebäudeblöcke, Gesamtvolumen {:.1f} m³.</translation>
+    </message>
+    <message>
       <source>Writing the ground</source>
       <translation>Gelände wird geschrieben</translation>
     </message>
     <message>
+      <source>{} is a folder: choose a file.</source>
+      <translation>{} ist ein Ordner: Wählen Sie eine Datei.</translation>
+    </message>
+    <message>
       <source>File not found: {}</source>
       <translation>Datei nicht gefunden: {}</translation>
+    </message>
+    <message>
+      <source>{} worker(s)</source>
+      <translation>{} Worker-Prozess(e)</translation>
+    </message>
+    <message>
+      <source>The data fit in one tile of {} m: reconstructed in this process, without {}.</source>
+      <translation>Die Daten passen in eine Kachel von {} m: in diesem Prozess rekonstruiert, ohne {}.</translation>
+    </message>
+    <message>
+      <source>Mesh written to {}, preview to {}.</source>
+      <translation>Netz nach {} geschrieben, Vorschau nach {}.</translation>
+    </message>
+    <message>
+      <source>Could not write {}: {}</source>
+      <translation>{} konnte nicht geschrieben werden: {}</translation>
+    </message>
+    <message>
+      <source>The domain extent cannot be transformed from {} into the data's CRS {}: {}</source>
+      <translation>Die Ausdehnung des Gebiets kann nicht von {} in das KBS der Daten {} transformiert werden: {}</translation>
     </message>
     <message>
       <source>Tiles of {} m on {}</source>
@@ -284,12 +316,36 @@
       <translation>Netz {} wird geschrieben</translation>
     </message>
     <message>
-      <source>{} worker(s)</source>
-      <translation>{} Worker-Prozess(e)</translation>
+      <source>Could not remove the outputs written before the run stopped: {}</source>
+      <translation>Die vor dem Abbruch geschriebenen Ausgaben konnten nicht entfernt werden: {}</translation>
+    </message>
+    <message>
+      <source>The mesh file {} has no mesh extension: end its name with one of {} (the extension picks the format).</source>
+      <translation>Die Netzdatei {} hat keine Netz-Endung: Beenden Sie ihren Namen mit einer von {} (die Endung wählt das Format).</translation>
+    </message>
+    <message>
+      <source>The mesh file {} is a folder: give a file name inside it.</source>
+      <translation>Die Netzdatei {} ist ein Ordner: Geben Sie einen Dateinamen darin an.</translation>
+    </message>
+    <message>
+      <source>The folder of the mesh file {} does not exist: create it or choose another one.</source>
+      <translation>Der Ordner der Netzdatei {} existiert nicht: Legen Sie ihn an oder wählen Sie einen anderen.</translation>
+    </message>
+    <message>
+      <source>The folder of the mesh file {} cannot be written to: choose another one.</source>
+      <translation>In den Ordner der Netzdatei {} kann nicht geschrieben werden: Wählen Sie einen anderen.</translation>
     </message>
     <message>
       <source>No point cloud file given (INPUT).</source>
       <translation>Keine Punktwolkendatei angegeben (INPUT).</translation>
+    </message>
+    <message>
+      <source>The folder {} holds no LAS/LAZ file (.las, .laz).</source>
+      <translation>Der Ordner {} enthält keine LAS/LAZ-Datei (.las, .laz).</translation>
+    </message>
+    <message>
+      <source>File or folder not found: {}</source>
+      <translation>Datei oder Ordner nicht gefunden: {}</translation>
     </message>
     <message>
       <source>Not a LAS/LAZ file: {}</source>

@@ -128,8 +128,8 @@
       <translation>Les îlots plus petits que cela (m³) sont supprimés.</translation>
     </message>
     <message>
-      <source>The domain: data outside is ignored, and blocks crossing its edge are closed on it. Default: the extent of the data. Give it in the data's CRS.</source>
-      <translation>Le domaine : les données en dehors sont ignorées et les îlots qui en franchissent le bord y sont fermés. Par défaut : l'emprise des données. À donner dans le SCR des données.</translation>
+      <source>The domain: data outside is ignored, and blocks crossing its edge are closed on it. Default: the extent of the data. An extent in another CRS than the data's (drawn on a map, or typed with its CRS, e.g. [EPSG:4326]) is transformed into the data's, as its bounding box.</source>
+      <translation>Le domaine : les données en dehors sont ignorées et les îlots qui en franchissent le bord y sont fermés. Par défaut : l'emprise des données. Une emprise dans un autre SCR que celui des données (tracée sur une carte, ou saisie avec son SCR, p. ex. [EPSG:4326]) est transformée dans celui des données, en son rectangle englobant.</translation>
     </message>
     <message>
       <source>Vertex-only Catmull-Clark passes over the voxel surfaces (the paper uses 3); 0 keeps the voxel faces.</source>
@@ -268,12 +268,44 @@
       <translation>Annulé ; aucune sortie n'a été écrite.</translation>
     </message>
     <message>
+      <source>Could not connect to the Dask scheduler at {} ({}). Check that the scheduler is running and reachable at that address (tcp://host:port, by default port 8786), or leave the Dask scheduler address empty to run the tiles on local workers.</source>
+      <translation>Connexion impossible à l'ordonnanceur Dask à l'adresse {} ({}). Vérifiez que l'ordonnanceur est lancé et joignable à cette adresse (tcp://hôte:port, par défaut le port 8786), ou laissez l'adresse de l'ordonnanceur Dask vide pour calculer les tuiles avec des processus locaux.</translation>
+    </message>
+    <message>
+      <source>{} building blocks, total volume {:.1f} m³.</source>
+      <translation>{} îlots bâtis, volume total {:.1f} m³.</translation>
+    </message>
+    <message>
       <source>Writing the ground</source>
       <translation>Écriture du sol</translation>
     </message>
     <message>
+      <source>{} is a folder: choose a file.</source>
+      <translation>{} est un dossier : choisissez un fichier.</translation>
+    </message>
+    <message>
       <source>File not found: {}</source>
       <translation>Fichier introuvable : {}</translation>
+    </message>
+    <message>
+      <source>{} worker(s)</source>
+      <translation>{} processus de calcul</translation>
+    </message>
+    <message>
+      <source>The data fit in one tile of {} m: reconstructed in this process, without {}.</source>
+      <translation>Les données tiennent dans une tuile de {} m : reconstruites dans ce processus, sans {}.</translation>
+    </message>
+    <message>
+      <source>Mesh written to {}, preview to {}.</source>
+      <translation>Maillage écrit dans {}, aperçu dans {}.</translation>
+    </message>
+    <message>
+      <source>Could not write {}: {}</source>
+      <translation>Impossible d'écrire {} : {}</translation>
+    </message>
+    <message>
+      <source>The domain extent cannot be transformed from {} into the data's CRS {}: {}</source>
+      <translation>L'emprise du domaine ne peut pas être transformée de {} dans le SCR des données {} : {}</translation>
     </message>
     <message>
       <source>Tiles of {} m on {}</source>
@@ -284,12 +316,36 @@
       <translation>Écriture du maillage {}</translation>
     </message>
     <message>
-      <source>{} worker(s)</source>
-      <translation>{} processus de calcul</translation>
+      <source>Could not remove the outputs written before the run stopped: {}</source>
+      <translation>Impossible de supprimer les sorties écrites avant l'arrêt du traitement : {}</translation>
+    </message>
+    <message>
+      <source>The mesh file {} has no mesh extension: end its name with one of {} (the extension picks the format).</source>
+      <translation>Le fichier de maillage {} n'a pas d'extension de maillage : terminez son nom par l'une de {} (l'extension choisit le format).</translation>
+    </message>
+    <message>
+      <source>The mesh file {} is a folder: give a file name inside it.</source>
+      <translation>Le fichier de maillage {} est un dossier : donnez un nom de fichier à l'intérieur.</translation>
+    </message>
+    <message>
+      <source>The folder of the mesh file {} does not exist: create it or choose another one.</source>
+      <translation>Le dossier du fichier de maillage {} n'existe pas : créez-le ou choisissez-en un autre.</translation>
+    </message>
+    <message>
+      <source>The folder of the mesh file {} cannot be written to: choose another one.</source>
+      <translation>Le dossier du fichier de maillage {} n'est pas accessible en écriture : choisissez-en un autre.</translation>
     </message>
     <message>
       <source>No point cloud file given (INPUT).</source>
       <translation>Aucun fichier de nuage de points donné (INPUT).</translation>
+    </message>
+    <message>
+      <source>The folder {} holds no LAS/LAZ file (.las, .laz).</source>
+      <translation>Le dossier {} ne contient aucun fichier LAS/LAZ (.las, .laz).</translation>
+    </message>
+    <message>
+      <source>File or folder not found: {}</source>
+      <translation>Fichier ou dossier introuvable : {}</translation>
     </message>
     <message>
       <source>Not a LAS/LAZ file: {}</source>

@@ -4,17 +4,22 @@ A subclass adds its input parameters (:meth:`UrbanvoxAlgorithm.addInputParameter
 and runs the core (:meth:`UrbanvoxAlgorithm.reconstruct`); this class adds the
 voxel and threshold parameters, turns the core's progress, cancel and errors into
 Processing's, and writes the two feature sinks. The sinks are created only after
-the core has returned, so an error or a cancel leaves no half-written output.
+the core has returned; a cancel or an error while they are written removes
+what this run wrote (:class:`~.outputs.RunOutputs`), so no half-written
+output is left.
 """
 
 import importlib.util
 import math
 import os
+import re
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
 from qgis.core import (
     QgsCoordinateReferenceSystem,
+    QgsCoordinateTransform,
+    QgsCsException,
     QgsFeature,
     QgsFeatureSink,
     QgsFields,
@@ -38,10 +43,11 @@ from ..styles import style_blocks, style_footprints, style_ground, style_on_load
 from ..compat import (FLAG_ADVANCED, MULTIPOLYGON_Z, NUMBER_DOUBLE, NUMBER_INTEGER, POLYGON, VECTOR_POLYGON,
                       make_field)
 from .geometries import GeometryFeed
+from .outputs import RunOutputs, mesh_path_problem
 
 #: Fields every block has, in this order, as (name, kind); kind is "int", "long", "double" or
-#: "string". Further keys of the core's block rows (measures of the smoothed mesh, a city
-#: model's buildings) follow them.
+#: "string": those of the voxel model, then the measures of the smoothed mesh (the keys of
+#: core.reconstruction.Reconstruction.block_rows).
 BLOCK_FIELDS = (
     ("block_id", "int"),
     ("height", "double"),
@@ -51,6 +57,21 @@ BLOCK_FIELDS = (
     ("volume", "double"),
     ("surface_area", "double"),
     ("n_voxels", "long"),
+    ("mesh_volume", "double"),
+    ("mesh_area", "double"),
+    ("roof_area", "double"),
+    ("facade_area", "double"),
+    ("min_quality", "double"),
+    ("mean_quality", "double"),
+    ("mean_dist", "double"),
+    ("max_dist", "double"),
+)
+
+#: The fields that follow where the input is a city model that names its buildings (the
+#: result's block_buildings is set, whether or not any block is left).
+CITY_FIELDS = (
+    ("building_ids", "string"),
+    ("n_buildings", "long"),
 )
 
 #: Python packages every algorithm needs; subclasses add their readers'.
@@ -62,14 +83,26 @@ PIP_PACKAGES = ('"laspy[lazrs]"', "trimesh", "shapely", "pyproj", "scipy", "numb
 #: Share of the progress bar (%) for the method; writing the outputs has the rest.
 _RECONSTRUCTION_PERCENT = 80.0
 
+#: The core's progress text as it starts to cut the domain into tiles (core.tiles.reconstruct_tiled):
+#: only then are Dask's workers or scheduler used.
+_TILING_MESSAGE = "Cutting the domain into tiles"
+
+#: A parameter named with its command-line flag in a core message: ``FILL_UNDER_ROOFS (--fill-under-roofs)``.
+_FLAG_NAMED = re.compile(r"\b([A-Z][A-Z_]+) \(--[a-z][a-z-]*\)")
+
 #: Seconds from a dialog's opening to the compiled kernels' loading (createCustomParametersWidget):
 #: the dialog builds first, as the loading holds Python's GIL most of its time.
 _DIALOG_SETTLE_S = 0.5
 
 
-def field_kinds(rows):
-    """(name, kind) of the output fields: :data:`BLOCK_FIELDS`, then the rows' other keys in order."""
-    kinds = list(BLOCK_FIELDS)
+def field_kinds(rows, city_model=False):
+    """(name, kind) of the output fields: :data:`BLOCK_FIELDS`, :data:`CITY_FIELDS` for a
+    ``city_model``, then any other keys of the rows, in order.
+
+    The layers have the same fields whatever the number of blocks: an empty result's are
+    those of a full one (the rows only add keys a newer core may give).
+    """
+    kinds = list(BLOCK_FIELDS) + (list(CITY_FIELDS) if city_model else [])
     known = {name for name, _ in kinds}
     for name, value in rows[0].items() if rows else ():
         if name not in known:
@@ -314,7 +347,8 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         "MIN_FOOTPRINT": "Blocks covering less ground than this (m²) are dropped.",
         "MIN_VOLUME": "Blocks smaller than this (m³) are dropped.",
         "EXTENT": "The domain: data outside is ignored, and blocks crossing its edge are closed on it. "
-                  "Default: the extent of the data. Give it in the data's CRS.",
+                  "Default: the extent of the data. An extent in another CRS than the data's (drawn on a map, "
+                  "or typed with its CRS, e.g. [EPSG:4326]) is transformed into the data's, as its bounding box.",
         "SMOOTHING_ITERATIONS": "Vertex-only Catmull-Clark passes over the voxel surfaces (the paper uses 3); "
                                 "0 keeps the voxel faces.",
         "PROJECT": "Move the smoothed nodes onto moving-least-squares planes of the data, along their normals.",
@@ -363,13 +397,48 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
             return None
         return crs.authid() or crs.toWkt()
 
+    def inputCrs(self, parameters, context):  # noqa: N802
+        """The CRS the input files name (pyproj), None if they name none (subclasses)."""
+        return None
+
+    def dataCrs(self, parameters, context):  # noqa: N802
+        """The horizontal CRS of the data as the core takes it: the CRS parameter, else the one the
+        input names (:meth:`inputCrs`); an invalid CRS when neither says (the core then stops)."""
+        import pyproj
+
+        from ...core.crs import horizontal_crs
+
+        text = self.crsArgument(parameters, context)
+        try:
+            crs = pyproj.CRS.from_user_input(text) if text else self.inputCrs(parameters, context)
+        except pyproj.exceptions.CRSError:
+            crs = None  # the core says what is wrong with it
+        if crs is None:
+            return QgsCoordinateReferenceSystem()
+        return QgsCoordinateReferenceSystem.fromWkt(horizontal_crs(crs).to_wkt())
+
     def extentArgument(self, parameters, context):  # noqa: N802
-        """The EXTENT parameter as (xmin, ymin, xmax, ymax) in the data's CRS, or None."""
+        """The EXTENT parameter as (xmin, ymin, xmax, ymax) in the data's CRS, or None.
+
+        The extent may be in any CRS (drawn on a map, a layer's, typed with ``[EPSG:4326]``):
+        it is transformed into the data's (:meth:`dataCrs`), its bounding box taken. An extent
+        without a CRS is in the data's.
+        """
         if not parameters.get(self.EXTENT):
             return None
         rect = self.parameterAsExtent(parameters, self.EXTENT, context)
         if rect.isNull() or rect.isEmpty():
             return None
+        extent_crs = self.parameterAsExtentCrs(parameters, self.EXTENT, context)
+        data_crs = self.dataCrs(parameters, context) if extent_crs.isValid() else QgsCoordinateReferenceSystem()
+        if data_crs.isValid() and extent_crs != data_crs:
+            try:
+                rect = QgsCoordinateTransform(extent_crs, data_crs, context.transformContext()).transformBoundingBox(
+                    rect)
+            except QgsCsException as err:
+                raise QgsProcessingException(self.tr(
+                    "The domain extent cannot be transformed from {} into the data's CRS {}: {}").format(
+                    extent_crs.userFriendlyIdentifier(), data_crs.userFriendlyIdentifier(), err)) from err
         return (float(rect.xMinimum()), float(rect.yMinimum()), float(rect.xMaximum()), float(rect.yMaximum()))
 
     def inputPath(self, parameters, name, context):  # noqa: N802
@@ -378,10 +447,29 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         return self.existingFile(path) if path else path
 
     def existingFile(self, path):  # noqa: N802
-        """``path``, or an error saying it is not found."""
+        """``path``, or an error saying it is a folder or is not found."""
+        if os.path.isdir(path):
+            raise QgsProcessingException(self.tr("{} is a folder: choose a file.").format(path))
         if not os.path.isfile(path):
             raise QgsProcessingException(self.tr("File not found: {}").format(path))
         return path
+
+    def checkParameterValues(self, parameters, context):  # noqa: N802 (QGIS API name)
+        """QGIS's checks, then the mesh file's name: its extension and folder are checked before
+        the run, which is long, rather than by the core's writer once it is over."""
+        ok, message = super().checkParameterValues(parameters, context)
+        if not ok:
+            return ok, message
+        mesh_path = self.meshPath(parameters, context)
+        problem = mesh_path_problem(mesh_path, self.tr) if mesh_path else None
+        return (False, problem) if problem else (True, "")
+
+    def meshPath(self, parameters, context):  # noqa: N802
+        """OUTPUT_MESH as a path, '' when it is not asked for."""
+        value = parameters.get(self.OUTPUT_MESH)
+        if value is None or value == "":
+            return ""
+        return self.parameterAsFileOutput(parameters, self.OUTPUT_MESH, context) or ""
 
     # -- running ------------------------------------------------------------------------------
 
@@ -410,10 +498,21 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
             size = TileOptions.tile_size
         return TileOptions(tile_size=float(size), workers=workers, scheduler=scheduler)
 
+    def schedulerError(self, scheduler, err):  # noqa: N802
+        """The QgsProcessingException for a Dask scheduler that cannot be reached at ``scheduler``."""
+        return QgsProcessingException(self.tr(
+            "Could not connect to the Dask scheduler at {} ({}). Check that the scheduler is running and "
+            "reachable at that address (tcp://host:port, by default port 8786), or leave the Dask scheduler "
+            "address empty to run the tiles on local workers.").format(scheduler, err))
+
     def processAlgorithm(self, parameters, context, feedback):  # noqa: N802 (QGIS API name)
         missing = [m for m in self.requiredModules(parameters, context) if importlib.util.find_spec(m) is None]
         if missing:
             raise QgsProcessingException(missing_dependency_message(missing))
+        mesh_path = self.meshPath(parameters, context)
+        problem = mesh_path_problem(mesh_path, self.tr) if mesh_path else None
+        if problem:  # a script's run.processAlgorithm() skips checkParameterValues
+            raise QgsProcessingException(problem)
         from ...core import pipeline  # imported here: it needs the modules just checked
         from ...core.errors import UrbanvoxError
         from ...core.progress import translated
@@ -429,70 +528,115 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
             extent=self.extentArgument(parameters, context),
         )
 
+        tiles = self.tileOptions(parameters, context)
+        where = tiles and (tiles.scheduler or self.tr("{} worker(s)").format(max(1, tiles.workers)))
+        tiled = []  # said once the core cuts the domain: data that fit in one tile never reach Dask
+
         def progress(fraction, message=None):
             feedback.setProgress(_RECONSTRUCTION_PERCENT * min(max(float(fraction), 0.0), 1.0))
             if message:
+                if tiles is not None and not tiled and _says(message, _TILING_MESSAGE):
+                    tiled.append(True)
+                    feedback.pushInfo(self.tr("Tiles of {} m on {}").format(tiles.tile_size, where))
                 feedback.setProgressText(translated(message, self.tr))
 
-        tiles = self.tileOptions(parameters, context)
-        if tiles is not None:
-            feedback.pushInfo(self.tr("Tiles of {} m on {}").format(
-                tiles.tile_size, tiles.scheduler or self.tr("{} worker(s)").format(max(1, tiles.workers))))
         try:
             result = self.reconstruct(pipeline, parameters, context, params, tiles, progress,
                                       feedback.isCanceled)
         except UrbanvoxError as err:  # includes Cancelled
-            raise QgsProcessingException(str(err)) from err
+            raise QgsProcessingException(self.qgisWording(str(err))) from err
+        except (OSError, ValueError) as err:
+            # dask.distributed's Client: OSError when nothing answers (after its 30 s timeout),
+            # ValueError for an address it cannot parse.
+            if tiled and tiles.scheduler and (isinstance(err, OSError) or tiles.scheduler in str(err)):
+                raise self.schedulerError(tiles.scheduler, err) from err
+            raise
+        if tiles is not None and not tiled:
+            feedback.pushInfo(self.tr("The data fit in one tile of {} m: reconstructed in this process, "
+                                      "without {}.").format(tiles.tile_size, where))
 
         for warning in result.warnings:
-            feedback.pushWarning(translated(warning, self.tr))
+            feedback.pushWarning(self.qgisWording(translated(warning, self.tr)))
         if feedback.isCanceled():  # before the first output: nothing half-written
             raise QgsProcessingException(self.tr("Cancelled; no output was written."))
         return self.writeOutputs(result, parameters, context, feedback)
 
+    def qgisWording(self, message):  # noqa: N802
+        """``message`` (the core's, translated) as QGIS words it: a parameter named with the
+        command line's flag, ``FILL_UNDER_ROOFS (--fill-under-roofs)``, by its label in the
+        dialog and its name, ``"Fill every column up to its roof" (FILL_UNDER_ROOFS)``."""
+        def label(match):
+            definition = self.parameterDefinition(match.group(1))
+            if definition is None:
+                return match.group(0)
+            return f'"{definition.description()}" ({match.group(1)})'
+
+        return _FLAG_NAMED.sub(label, message)
+
     # -- outputs ------------------------------------------------------------------------------
 
     def writeOutputs(self, result, parameters, context, feedback):  # noqa: N802
+        """Write the layers, the mesh file and its picture; a cancel or an error on the way
+        removes what they wrote (:class:`~.outputs.RunOutputs`) and raises."""
         # A city's layers, mesh and picture take a while after the method: they have their share
         # of the progress bar.
         feedback.setProgress(_RECONSTRUCTION_PERCENT)
         feedback.setProgressText(self.tr("Writing the blocks and footprints"))
-        mesh_path = self.parameterAsFileOutput(parameters, self.OUTPUT_MESH, context)
+        mesh_path = self.meshPath(parameters, context)
         binary = self.parameterAsBoolean(parameters, self.MESH_BINARY, context)
-        # The mesh file and its picture are written on a thread of their own
-        # while this one writes the layers (QGIS's and GDAL's C++, the GIL
-        # released): the 1 km synthetic city's outputs with a .msh took
-        # 8.3-9.4 s in a qgis_process run one after the other, 7.1-8.2 s so.
-        # Leaving waits for it, whatever the layers did.
-        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-mesh") as mesh_thread:
-            mesh_written = mesh_thread.submit(self._write_mesh, result, mesh_path, binary) if mesh_path else None
-            outputs = self._write_layers(result, parameters, context, feedback)
-            if mesh_written is not None:
-                feedback.setProgress(92.0)
-                feedback.setProgressText(self.tr("Writing the mesh {}").format(os.path.basename(mesh_path)))
-                try:
-                    preview = mesh_written.result()
-                except Exception as err:  # UrbanvoxError, or an I/O error: say which file
-                    raise QgsProcessingException(f"Could not write {mesh_path}: {err}") from err
-                outputs[self.OUTPUT_MESH] = mesh_path
-                outputs[self.OUTPUT_PREVIEW] = preview
-                feedback.pushInfo(f"Mesh written to {mesh_path}, preview to {preview}.")
+        written = RunOutputs()
+        try:
+            # The mesh file and its picture are written on a thread of their own
+            # while this one writes the layers (QGIS's and GDAL's C++, the GIL
+            # released): the 1 km synthetic city's outputs with a .msh took
+            # 8.3-9.4 s in a qgis_process run one after the other, 7.1-8.2 s so.
+            # Leaving waits for it, whatever the layers did: what it wrote is
+            # known before anything is removed.
+            with ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-mesh") as mesh_thread:
+                mesh_written = mesh_thread.submit(self._write_mesh, result, mesh_path, binary, written,
+                                                  feedback.isCanceled) if mesh_path else None
+                outputs = self._write_layers(result, parameters, context, feedback, written)
+                if mesh_written is not None:
+                    feedback.setProgress(92.0)
+                    feedback.setProgressText(self.tr("Writing the mesh {}").format(os.path.basename(mesh_path)))
+                    try:
+                        preview = mesh_written.result()
+                    except _Cancelled:
+                        raise
+                    except Exception as err:  # UrbanvoxError, or an I/O error: say which file
+                        raise QgsProcessingException(self.tr("Could not write {}: {}").format(mesh_path, err)) \
+                            from err
+                    outputs[self.OUTPUT_MESH] = mesh_path
+                    outputs[self.OUTPUT_PREVIEW] = preview
+            if feedback.isCanceled():
+                raise _Cancelled()
+        except BaseException as err:
+            left = written.remove()
+            if left:
+                feedback.reportError(self.tr("Could not remove the outputs written before the run stopped: {}")
+                                     .format(", ".join(left)))
+            if isinstance(err, _Cancelled):
+                raise QgsProcessingException(self.tr("Cancelled; no output was written.")) from None
+            raise
+        if mesh_path:
+            feedback.pushInfo(self.tr("Mesh written to {}, preview to {}.").format(mesh_path, preview))
 
         count = int(result.summary["block_count"])
         volume = float(result.summary["total_volume"])
         feedback.setProgress(100.0)
-        feedback.pushInfo(f"{count} building blocks, total volume {volume:.1f} m³.")
+        feedback.pushInfo(self.tr("{} building blocks, total volume {:.1f} m³.").format(count, volume))
         style_on_load(context, outputs[self.OUTPUT_BLOCKS], style_blocks)
         style_on_load(context, outputs[self.OUTPUT_FOOTPRINTS], style_footprints)
         style_on_load(context, outputs.get(self.OUTPUT_GROUND), style_ground)
         outputs.update({self.BLOCK_COUNT: count, self.TOTAL_VOLUME: volume})
         return outputs
 
-    def _write_layers(self, result, parameters, context, feedback):
-        """Write the blocks, footprints and (if asked for) ground layers; returns their destinations."""
+    def _write_layers(self, result, parameters, context, feedback, written):
+        """Write the blocks, footprints and (if asked for) ground layers, each noted in ``written``
+        (:class:`~.outputs.RunOutputs`); returns their destinations."""
         rows = result.block_rows()
         crs = QgsCoordinateReferenceSystem.fromWkt(result.crs.to_wkt())
-        kinds = field_kinds(rows)
+        kinds = field_kinds(rows, city_model=getattr(result, "block_buildings", None) is not None)
         fields = block_fields(kinds)
         attributes = [block_attributes(row, kinds) for row in rows]
         destinations = {}
@@ -512,7 +656,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                 features = ((attributes[i] if i < len(attributes) else [None] * len(kinds), geometry)
                             for i, geometry in enumerate(feed.layer(layer)))
                 destinations[name], count = self._write_layer(parameters, name, context, fields, wkb_type, crs,
-                                                              features, feed, feedback, percent, len(rows))
+                                                              features, feed, feedback, percent, len(rows), written)
                 if count != len(rows):
                     raise QgsProcessingException(f"Internal error: {len(rows)} blocks, {count} features in {name}.")
             if ground:
@@ -521,48 +665,68 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
                 ground_fields = QgsFields()
                 ground_fields.append(make_field("tile", "int"))
                 tiles = (([tile], geometry) for tile, geometry in enumerate(feed.layer(2)))
-                written, _ = self._write_layer(parameters, self.OUTPUT_GROUND, context, ground_fields,
-                                               MULTIPOLYGON_Z, crs, tiles, feed, feedback, (88.0, 92.0), 0,
-                                               optional=True)
-                if written is not None:
-                    destinations[self.OUTPUT_GROUND] = written
+                ground_destination, _ = self._write_layer(parameters, self.OUTPUT_GROUND, context, ground_fields,
+                                                          MULTIPOLYGON_Z, crs, tiles, feed, feedback, (88.0, 92.0), 0,
+                                                          written, optional=True)
+                if ground_destination is not None:
+                    destinations[self.OUTPUT_GROUND] = ground_destination
         return destinations
 
     def _write_layer(self, parameters, name, context, fields, wkb_type, crs, rows, feed, feedback, percent, count,
-                     optional=False):
+                     written, optional=False):
         """Write ``rows`` of (attributes, geometry) to output ``name`` and close it;
-        each geometry goes back to ``feed`` once written.
+        each geometry goes back to ``feed`` once written, the output is noted in
+        ``written`` (:class:`~.outputs.RunOutputs`) once opened.
 
         Returns its destination and the number of features written. The
         progress bar goes from ``percent[0]`` to ``percent[1]`` over ``count``
         rows (0: unknown, it stays). An ``optional`` output the user left out
-        gives ``(None, 0)``.
+        gives ``(None, 0)``. A cancel stops it between two features: it raises
+        :class:`_Cancelled`, the sink closed.
         """
+        if feedback.isCanceled():
+            raise _Cancelled()
+        written.opening(_sink_value(parameters.get(name), context))
         sink, destination = self.parameterAsSink(parameters, name, context, fields, wkb_type, crs)
         if sink is None:
             if optional:
                 return None, 0
             raise QgsProcessingException(self.invalidSinkError(parameters, name))
+        written.opened(destination)
         start, end = percent
         every = max(1, count // 50)
-        written = 0
-        for attributes, geometry in rows:
-            self._add(sink, fields, attributes, geometry, name)
-            feed.written(geometry)
-            written += 1
-            if count and written % every == 0:
-                feedback.setProgress(start + (end - start) * written / count)
-        if not sink.flushBuffer():
-            raise QgsProcessingException(f"Could not write {name}: {sink.lastError()}")
-        del sink  # the writer closes: its file is complete before the next output opens it
-        return destination, written
+        added = 0
+        try:
+            for attributes, geometry in rows:
+                self._add(sink, fields, attributes, geometry, name)
+                feed.written(geometry)
+                added += 1
+                if feedback.isCanceled():
+                    raise _Cancelled()
+                if count and added % every == 0:
+                    feedback.setProgress(start + (end - start) * added / count)
+            if not sink.flushBuffer():
+                raise QgsProcessingException(self.tr("Could not write {}: {}").format(name, sink.lastError()))
+        finally:
+            # The writer closes, whatever happened: its file is complete before the next output
+            # opens it, or can be removed.
+            del sink
+        return destination, added
 
     @staticmethod
-    def _write_mesh(result, path, binary):
-        """Write the mesh file ``path`` and its preview picture beside it; returns the picture's path."""
+    def _write_mesh(result, path, binary, written, is_cancelled):
+        """Write the mesh file ``path`` and its preview picture beside it, each noted in ``written``
+        once there; returns the picture's path. A cancel stops it before each (the core writes a
+        file whole: into a temporary, renamed when complete)."""
+        if is_cancelled():
+            raise _Cancelled()
         result.write_mesh(path, binary=binary)
+        written.file(path)
+        if is_cancelled():
+            raise _Cancelled()
         preview = os.path.splitext(path)[0] + ".png"
         result.write_preview(preview)
+        written.file(preview)
         return preview
 
     @staticmethod
@@ -572,3 +736,24 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         feature.setGeometry(geometry)
         if not sink.addFeature(feature, QgsFeatureSink.Flag.FastInsert):
             raise QgsProcessingException(f"Could not write block {attributes[0]} to {name}: {sink.lastError()}")
+
+
+def _says(message, text):
+    """Whether the core's progress ``message`` is ``text``, or holds it as a part (a cluster's
+    "Cluster 1/2: ..." made by core.progress.Text)."""
+    if isinstance(message, str) and str.__eq__(message, text):
+        return True
+    return any(_says(part, text) for part in getattr(message, "parts", ()))
+
+
+class _Cancelled(Exception):
+    """A cancel while the outputs are written: what was written is removed, then the run stops."""
+
+
+def _sink_value(value, context):
+    """A sink parameter's value as the user gave it: a path, URI, ``memory:`` or ``TEMPORARY_OUTPUT``."""
+    from qgis.core import QgsProcessingOutputLayerDefinition
+
+    if isinstance(value, QgsProcessingOutputLayerDefinition):
+        value, _ = value.sink.valueAsString(context.expressionContext(), "")
+    return value if isinstance(value, str) else ""

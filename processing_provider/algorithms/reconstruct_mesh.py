@@ -1,6 +1,9 @@
 """``urbanvox:reconstructfrommesh``: building blocks from a triangle mesh (CityGML-derived STL, OBJ, PLY, OFF)
 or a CityJSON city model."""
 
+import json
+import os
+
 from qgis.core import QgsProcessingParameterBoolean, QgsProcessingParameterFile, QgsProcessingParameterString
 
 from ..compat import FILE_BEHAVIOR, FLAG_ADVANCED
@@ -80,6 +83,26 @@ class ReconstructFromMesh(UrbanvoxAlgorithm):
         if all(not path or path.lower().endswith((".json", ".jsonl")) for path in files):
             return BASE_MODULES  # CityJSON: read with json and shapely
         return BASE_MODULES + ("trimesh",)
+
+    def inputCrs(self, parameters, context):  # noqa: N802
+        """A CityJSON input's referenceSystem (pyproj), None for a mesh or a file that names none.
+
+        Read only for an extent in another CRS than the data's; a CityJSON file (not a
+        sequence, whose first line is its header) is parsed whole for it.
+        """
+        import pyproj
+
+        path = self.parameterAsFile(parameters, self.INPUT, context)
+        if not path.lower().endswith((".json", ".jsonl")) or not os.path.isfile(path):
+            return None
+        try:
+            with open(path, "rb") as file:
+                header = json.loads(file.readline()) if path.lower().endswith(".jsonl") else json.load(file)
+            metadata = header.get("metadata") or {}
+            text = metadata.get("referenceSystem") or metadata.get("crs")
+            return pyproj.CRS.from_user_input(str(text)) if text else None
+        except (OSError, ValueError, AttributeError, pyproj.exceptions.CRSError):
+            return None  # the core's reading says what is wrong with the file
 
     def reconstruct(self, pipeline, parameters, context, params, tiles, progress, is_cancelled):
         return pipeline.reconstruct_mesh(

@@ -1,9 +1,14 @@
 """``urbanvox:reconstructfrompointcloud``: building blocks from a classified LAS/LAZ point cloud."""
 
+import os
+
 from qgis.core import QgsProcessingException, QgsProcessingParameterMultipleLayers, QgsProcessingParameterString
 
 from ..compat import SOURCE_FILE
 from .base import BASE_MODULES, UrbanvoxAlgorithm
+
+#: The point cloud files read, also those of a folder given as INPUT.
+LAS_SUFFIXES = (".las", ".laz")
 
 
 class ReconstructFromPointCloud(UrbanvoxAlgorithm):
@@ -46,19 +51,58 @@ class ReconstructFromPointCloud(UrbanvoxAlgorithm):
         )
 
     def inputPaths(self, parameters, context):  # noqa: N802
-        """The INPUT files, checked to exist and to be LAS/LAZ."""
-        paths = [str(p) for p in self.parameterAsFileList(parameters, self.INPUT, context)]
-        if not paths:
+        """The INPUT files, checked to exist and to be LAS/LAZ; a folder gives the LAS/LAZ files in it."""
+        given = [str(p) for p in self.parameterAsFileList(parameters, self.INPUT, context)]
+        if not given:
             raise QgsProcessingException(self.tr("No point cloud file given (INPUT)."))
+        paths = []
+        for path in given:
+            if os.path.isdir(path):
+                paths += self.folderFiles(path)
+                continue
+            if not os.path.exists(path) and ";" in path:
+                # A list written as one string, as a batch or a model may give it
+                paths += [self.existingFile(p.strip()) for p in path.split(";") if p.strip()]
+                continue
+            paths.append(self.existingFile(path))
         for path in paths:
-            self.existingFile(path)
-            if not path.lower().endswith((".las", ".laz")):
+            if not path.lower().endswith(LAS_SUFFIXES):
                 raise QgsProcessingException(self.tr("Not a LAS/LAZ file: {}").format(path))
         return paths
 
+    def folderFiles(self, folder):  # noqa: N802
+        """The LAS/LAZ files in ``folder`` (not its subfolders), in name order; an error if it has none."""
+        files = sorted(os.path.join(folder, name) for name in os.listdir(folder)
+                       if name.lower().endswith(LAS_SUFFIXES) and os.path.isfile(os.path.join(folder, name)))
+        if not files:
+            raise QgsProcessingException(self.tr("The folder {} holds no LAS/LAZ file (.las, .laz).").format(folder))
+        return files
+
+    def existingFile(self, path):  # noqa: N802
+        """``path``, or an error saying it is not found (a file or a folder of them)."""
+        if not os.path.exists(path):
+            raise QgsProcessingException(self.tr("File or folder not found: {}").format(path))
+        return super().existingFile(path)
+
+    def inputCrs(self, parameters, context):  # noqa: N802
+        """The first CRS the LAS/LAZ headers declare (pyproj), None if none does."""
+        import laspy
+
+        for path in self.inputPaths(parameters, context):
+            try:
+                with laspy.open(path) as reader:
+                    crs = reader.header.parse_crs()
+            except Exception:  # noqa: BLE001 (an unreadable file: the core's reading says what is wrong)
+                continue
+            if crs is not None:
+                return crs
+        return None
+
     def requiredModules(self, parameters, context):  # noqa: N802
         modules = BASE_MODULES + ("laspy",)
-        files = [str(p) for p in self.parameterAsFileList(parameters, self.INPUT, context)]
+        files = []
+        for path in (str(p) for p in self.parameterAsFileList(parameters, self.INPUT, context)):
+            files += os.listdir(path) if os.path.isdir(path) else [path]
         if any(p.lower().endswith(".laz") for p in files):
             modules += ("lazrs",)
         return modules

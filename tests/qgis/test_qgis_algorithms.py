@@ -329,24 +329,6 @@ def test_smoothed_outputs_ground_layer_mesh_file_and_preview(processing, distric
     assert preview.endswith(".png") and Path(preview).read_bytes()[:4] == b"\x89PNG"
 
 
-def test_a_mesh_file_that_cannot_be_written_is_reported_after_the_layers(processing, district, tmp_path):
-    # The mesh file is written on a thread of its own while the layers are:
-    # its error comes once they are written, naming the file, and no thread
-    # of it is left behind.
-    import threading
-
-    from qgis.core import QgsProcessingException
-
-    gpkg = tmp_path / "out.gpkg"
-    mesh = tmp_path / "mesh.msh"
-    mesh.mkdir()  # a folder where the file should go
-    with pytest.raises(QgsProcessingException, match="Could not write .*mesh.msh"):
-        processing.run("urbanvox:reconstructfrompointcloud",
-                       {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, **gpkg_outputs(gpkg), "OUTPUT_MESH": str(mesh)})
-    assert len(read_layer(gpkg, "blocks")[1]) == len(read_layer(gpkg, "footprints")[1]) > 0
-    assert not any(thread.name.startswith("urbanvox-mesh") for thread in threading.enumerate())
-
-
 def test_outputs_load_styled_by_height_with_a_3d_renderer(processing, district, tmp_path):
     from qgis.core import QgsGraduatedSymbolRenderer, QgsProcessingContext, QgsProject
 

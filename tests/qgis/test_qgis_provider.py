@@ -145,19 +145,22 @@ def test_missing_python_package_gives_the_pip_command(processing, district, tmp_
 def test_field_values_are_plain_python_numbers(urbanvox_plugin):
     import numpy as np
 
-    from urbanvox.processing_provider.algorithms.base import BLOCK_FIELDS, block_attributes, field_kinds
+    from urbanvox.processing_provider.algorithms.base import (BLOCK_FIELDS, CITY_FIELDS, block_attributes,
+                                                              field_kinds)
 
     row = {name: (np.int64(3) if kind != "double" else np.float32(1.5)) for name, kind in BLOCK_FIELDS}
     row.update(mesh_volume=2.5, max_dist=float("nan"), extra_count=7, building_ids="a;b")
-    kinds = field_kinds([row])
-    assert kinds[: len(BLOCK_FIELDS)] == list(BLOCK_FIELDS)
-    assert kinds[len(BLOCK_FIELDS):] == [("mesh_volume", "double"), ("max_dist", "double"), ("extra_count", "long"),
-                                         ("building_ids", "string")]
+    kinds = field_kinds([row], city_model=True)
+    # The fixed fields whatever the rows hold (n_buildings missing here: NULL), then the rows' others.
+    assert kinds == list(BLOCK_FIELDS) + list(CITY_FIELDS) + [("extra_count", "long")]
     values = block_attributes(row, kinds)
+    names = [name for name, _ in kinds]
     assert [type(v) for v in values[: len(BLOCK_FIELDS)]] == [
-        int if kind != "double" else float for _, kind in BLOCK_FIELDS
+        type(None) if name == "max_dist" else int if kind != "double" else float for name, kind in BLOCK_FIELDS
     ]
-    assert values[len(BLOCK_FIELDS):] == [2.5, None, 7, "a;b"]
+    assert values[names.index("mesh_volume")] == 2.5 and values[names.index("max_dist")] is None
+    assert values[len(BLOCK_FIELDS):] == ["a;b", None, 7]
+    assert field_kinds([]) == list(BLOCK_FIELDS)  # no block: the same fields
     assert field_kinds([]) == list(BLOCK_FIELDS)
 
 
