@@ -3,26 +3,20 @@
 A subclass adds its input parameters (:meth:`UrbanvoxAlgorithm.addInputParameters`)
 and runs the core (:meth:`UrbanvoxAlgorithm.reconstruct`); this class adds the
 voxel and threshold parameters, turns the core's progress, cancel and errors into
-Processing's, and writes the two feature sinks. The sinks are created only after
-the core has returned; a cancel or an error while they are written removes
-what this run wrote (:class:`~.outputs.RunOutputs`), so no half-written
-output is left.
+Processing's, and writes the outputs (:mod:`.outputs`). The sinks are created only
+after the core has returned; a cancel or an error while they are written removes
+what this run wrote, so no half-written output is left.
 """
 
 import importlib.util
-import math
 import os
 import re
 import sys
-from concurrent.futures import ThreadPoolExecutor
 
 from qgis.core import (
     QgsCoordinateReferenceSystem,
     QgsCoordinateTransform,
     QgsCsException,
-    QgsFeature,
-    QgsFeatureSink,
-    QgsFields,
     QgsProcessingAlgorithm,
     QgsProcessingException,
     QgsProcessingOutputFile,
@@ -39,49 +33,14 @@ from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtGui import QIcon
 
 from .. import ICON_PATH
-from ..styles import style_blocks, style_footprints, style_ground, style_on_load
-from ..compat import (FLAG_ADVANCED, MULTIPOLYGON_Z, NUMBER_DOUBLE, NUMBER_INTEGER, POLYGON, VECTOR_POLYGON,
-                      make_field)
-from .geometries import GeometryFeed
-from .outputs import RunOutputs, mesh_path_problem
-
-#: Fields every block has, in this order, as (name, kind); kind is "int", "long", "double" or
-#: "string": those of the voxel model, then the measures of the smoothed mesh (the keys of
-#: core.reconstruction.Reconstruction.block_rows).
-BLOCK_FIELDS = (
-    ("block_id", "int"),
-    ("height", "double"),
-    ("ground_z", "double"),
-    ("top_z", "double"),
-    ("footprint_area", "double"),
-    ("volume", "double"),
-    ("surface_area", "double"),
-    ("n_voxels", "long"),
-    ("mesh_volume", "double"),
-    ("mesh_area", "double"),
-    ("roof_area", "double"),
-    ("facade_area", "double"),
-    ("min_quality", "double"),
-    ("mean_quality", "double"),
-    ("mean_dist", "double"),
-    ("max_dist", "double"),
-)
-
-#: The fields that follow where the input is a city model that names its buildings (the
-#: result's block_buildings is set, whether or not any block is left).
-CITY_FIELDS = (
-    ("building_ids", "string"),
-    ("n_buildings", "long"),
-)
+from ..compat import FLAG_ADVANCED, NUMBER_DOUBLE, NUMBER_INTEGER, VECTOR_POLYGON
+from .outputs import RECONSTRUCTION_PERCENT, OutputWriter, mesh_path_problem
 
 #: Python packages every algorithm needs; subclasses add their readers'.
 BASE_MODULES = ("numpy", "scipy", "pyproj", "shapely")
 
 #: What a user installs into QGIS's Python to get all of them (numba: optional, faster).
 PIP_PACKAGES = ('"laspy[lazrs]"', "trimesh", "shapely", "pyproj", "scipy", "numba")
-
-#: Share of the progress bar (%) for the method; writing the outputs has the rest.
-_RECONSTRUCTION_PERCENT = 80.0
 
 #: The core's progress text as it starts to cut the domain into tiles (core.tiles.reconstruct_tiled):
 #: only then are Dask's workers or scheduler used.
@@ -93,46 +52,6 @@ _FLAG_NAMED = re.compile(r"\b([A-Z][A-Z_]+) \(--[a-z][a-z-]*\)")
 #: Seconds from a dialog's opening to the compiled kernels' loading (createCustomParametersWidget):
 #: the dialog builds first, as the loading holds Python's GIL most of its time.
 _DIALOG_SETTLE_S = 0.5
-
-
-def field_kinds(rows, city_model=False):
-    """(name, kind) of the output fields: :data:`BLOCK_FIELDS`, :data:`CITY_FIELDS` for a
-    ``city_model``, then any other keys of the rows, in order.
-
-    The layers have the same fields whatever the number of blocks: an empty result's are
-    those of a full one (the rows only add keys a newer core may give).
-    """
-    kinds = list(BLOCK_FIELDS) + (list(CITY_FIELDS) if city_model else [])
-    known = {name for name, _ in kinds}
-    for name, value in rows[0].items() if rows else ():
-        if name not in known:
-            kind = ("string" if isinstance(value, str)
-                    else "long" if isinstance(value, int) and not isinstance(value, bool) else "double")
-            kinds.append((name, kind))
-    return kinds
-
-
-def block_fields(kinds):
-    """The :class:`QgsFields` for ``kinds`` (see :func:`field_kinds`)."""
-    fields = QgsFields()
-    for name, kind in kinds:
-        fields.append(make_field(name, kind))
-    return fields
-
-
-def block_attributes(row, kinds):
-    """Attribute values of a core block row as plain Python int/float/str (numpy scalars break
-    GPKG writes); missing or non-finite values become NULL."""
-    values = []
-    for name, kind in kinds:
-        value = row.get(name)
-        if kind == "string":
-            values.append(None if value is None else str(value))
-        elif value is None or not math.isfinite(value):
-            values.append(None)
-        else:
-            values.append(int(value) if kind != "double" else float(value))
-    return values
 
 
 def pip_command():
@@ -161,7 +80,7 @@ def missing_dependency_message(modules):
     )
 
 
-class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
+class UrbanvoxAlgorithm(OutputWriter, QgsProcessingAlgorithm):
     """Base class of the reconstruction algorithms (see the module docstring)."""
 
     INPUT = "INPUT"
@@ -533,7 +452,7 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
         tiled = []  # said once the core cuts the domain: data that fit in one tile never reach Dask
 
         def progress(fraction, message=None):
-            feedback.setProgress(_RECONSTRUCTION_PERCENT * min(max(float(fraction), 0.0), 1.0))
+            feedback.setProgress(RECONSTRUCTION_PERCENT * min(max(float(fraction), 0.0), 1.0))
             if message:
                 if tiles is not None and not tiled and _says(message, _TILING_MESSAGE):
                     tiled.append(True)
@@ -573,187 +492,9 @@ class UrbanvoxAlgorithm(QgsProcessingAlgorithm):
 
         return _FLAG_NAMED.sub(label, message)
 
-    # -- outputs ------------------------------------------------------------------------------
-
-    def writeOutputs(self, result, parameters, context, feedback):  # noqa: N802
-        """Write the layers, the mesh file and its picture; a cancel or an error on the way
-        removes what they wrote (:class:`~.outputs.RunOutputs`) and raises."""
-        # A city's layers, mesh and picture take a while after the method: they have their share
-        # of the progress bar.
-        feedback.setProgress(_RECONSTRUCTION_PERCENT)
-        feedback.setProgressText(self.tr("Writing the blocks and footprints"))
-        mesh_path = self.meshPath(parameters, context)
-        binary = self.parameterAsBoolean(parameters, self.MESH_BINARY, context)
-        written = RunOutputs()
-        try:
-            # The mesh file and its picture are written on a thread of their own
-            # while this one writes the layers (QGIS's and GDAL's C++, the GIL
-            # released): the 1 km synthetic city's outputs with a .msh took
-            # 8.3-9.4 s in a qgis_process run one after the other, 7.1-8.2 s so.
-            # Leaving waits for it, whatever the layers did: what it wrote is
-            # known before anything is removed.
-            with ThreadPoolExecutor(max_workers=1, thread_name_prefix="urbanvox-mesh") as mesh_thread:
-                mesh_written = mesh_thread.submit(self._write_mesh, result, mesh_path, binary, written,
-                                                  feedback.isCanceled) if mesh_path else None
-                outputs = self._write_layers(result, parameters, context, feedback, written)
-                if mesh_written is not None:
-                    feedback.setProgress(92.0)
-                    feedback.setProgressText(self.tr("Writing the mesh {}").format(os.path.basename(mesh_path)))
-                    try:
-                        preview = mesh_written.result()
-                    except _Cancelled:
-                        raise
-                    except Exception as err:  # UrbanvoxError, or an I/O error: say which file
-                        raise QgsProcessingException(self.tr("Could not write {}: {}").format(mesh_path, err)) \
-                            from err
-                    outputs[self.OUTPUT_MESH] = mesh_path
-                    outputs[self.OUTPUT_PREVIEW] = preview
-            if feedback.isCanceled():
-                raise _Cancelled()
-        except BaseException as err:
-            left = written.remove()
-            if left:
-                feedback.reportError(self.tr("Could not remove the outputs written before the run stopped: {}")
-                                     .format(", ".join(left)))
-            if isinstance(err, _Cancelled):
-                raise QgsProcessingException(self.tr("Cancelled; no output was written.")) from None
-            raise
-        if mesh_path:
-            feedback.pushInfo(self.tr("Mesh written to {}, preview to {}.").format(mesh_path, preview))
-
-        count = int(result.summary["block_count"])
-        volume = float(result.summary["total_volume"])
-        feedback.setProgress(100.0)
-        feedback.pushInfo(self.tr("{} building blocks, total volume {:.1f} m³.").format(count, volume))
-        style_on_load(context, outputs[self.OUTPUT_BLOCKS], style_blocks)
-        style_on_load(context, outputs[self.OUTPUT_FOOTPRINTS], style_footprints)
-        style_on_load(context, outputs.get(self.OUTPUT_GROUND), style_ground)
-        outputs.update({self.BLOCK_COUNT: count, self.TOTAL_VOLUME: volume})
-        return outputs
-
-    def _write_layers(self, result, parameters, context, feedback, written):
-        """Write the blocks, footprints and (if asked for) ground layers, each noted in ``written``
-        (:class:`~.outputs.RunOutputs`); returns their destinations."""
-        rows = result.block_rows()
-        crs = QgsCoordinateReferenceSystem.fromWkt(result.crs.to_wkt())
-        kinds = field_kinds(rows, city_model=getattr(result, "block_buildings", None) is not None)
-        fields = block_fields(kinds)
-        attributes = [block_attributes(row, kinds) for row in rows]
-        destinations = {}
-        # The layers' geometries are made on a thread of their own while this
-        # one writes them (core.wkb, then QGIS's parse; see .geometries): the
-        # 1 km synthetic city's three layers into GeoPackages (550 MB of WKB)
-        # took 9.4 s one step after the other, 5.5-5.8 s so.
-        ground = bool(parameters.get(self.OUTPUT_GROUND))
-        sources = [result.block_surface_wkb, result.footprint_wkb] + ([result.ground_surface_wkb] if ground else [])
-        with GeometryFeed(*sources) as feed:
-            # One layer after the other, each closed before the next is opened:
-            # several outputs are often layers of one GeoPackage, and two open
-            # writers of one file can lose a layer when they commit.
-            for layer, (name, wkb_type, percent) in enumerate((
-                    (self.OUTPUT_BLOCKS, MULTIPOLYGON_Z, (_RECONSTRUCTION_PERCENT, 87.0)),
-                    (self.OUTPUT_FOOTPRINTS, POLYGON, (87.0, 88.0)))):
-                features = ((attributes[i] if i < len(attributes) else [None] * len(kinds), geometry)
-                            for i, geometry in enumerate(feed.layer(layer)))
-                destinations[name], count = self._write_layer(parameters, name, context, fields, wkb_type, crs,
-                                                              features, feed, feedback, percent, len(rows), written)
-                if count != len(rows):
-                    raise QgsProcessingException(f"Internal error: {len(rows)} blocks, {count} features in {name}.")
-            if ground:
-                feedback.setProgress(88.0)
-                feedback.setProgressText(self.tr("Writing the ground"))
-                ground_fields = QgsFields()
-                ground_fields.append(make_field("tile", "int"))
-                tiles = (([tile], geometry) for tile, geometry in enumerate(feed.layer(2)))
-                ground_destination, _ = self._write_layer(parameters, self.OUTPUT_GROUND, context, ground_fields,
-                                                          MULTIPOLYGON_Z, crs, tiles, feed, feedback, (88.0, 92.0), 0,
-                                                          written, optional=True)
-                if ground_destination is not None:
-                    destinations[self.OUTPUT_GROUND] = ground_destination
-        return destinations
-
-    def _write_layer(self, parameters, name, context, fields, wkb_type, crs, rows, feed, feedback, percent, count,
-                     written, optional=False):
-        """Write ``rows`` of (attributes, geometry) to output ``name`` and close it;
-        each geometry goes back to ``feed`` once written, the output is noted in
-        ``written`` (:class:`~.outputs.RunOutputs`) once opened.
-
-        Returns its destination and the number of features written. The
-        progress bar goes from ``percent[0]`` to ``percent[1]`` over ``count``
-        rows (0: unknown, it stays). An ``optional`` output the user left out
-        gives ``(None, 0)``. A cancel stops it between two features: it raises
-        :class:`_Cancelled`, the sink closed.
-        """
-        if feedback.isCanceled():
-            raise _Cancelled()
-        written.opening(_sink_value(parameters.get(name), context))
-        sink, destination = self.parameterAsSink(parameters, name, context, fields, wkb_type, crs)
-        if sink is None:
-            if optional:
-                return None, 0
-            raise QgsProcessingException(self.invalidSinkError(parameters, name))
-        written.opened(destination)
-        start, end = percent
-        every = max(1, count // 50)
-        added = 0
-        try:
-            for attributes, geometry in rows:
-                self._add(sink, fields, attributes, geometry, name)
-                feed.written(geometry)
-                added += 1
-                if feedback.isCanceled():
-                    raise _Cancelled()
-                if count and added % every == 0:
-                    feedback.setProgress(start + (end - start) * added / count)
-            if not sink.flushBuffer():
-                raise QgsProcessingException(self.tr("Could not write {}: {}").format(name, sink.lastError()))
-        finally:
-            # The writer closes, whatever happened: its file is complete before the next output
-            # opens it, or can be removed.
-            del sink
-        return destination, added
-
-    @staticmethod
-    def _write_mesh(result, path, binary, written, is_cancelled):
-        """Write the mesh file ``path`` and its preview picture beside it, each noted in ``written``
-        once there; returns the picture's path. A cancel stops it before each (the core writes a
-        file whole: into a temporary, renamed when complete)."""
-        if is_cancelled():
-            raise _Cancelled()
-        result.write_mesh(path, binary=binary)
-        written.file(path)
-        if is_cancelled():
-            raise _Cancelled()
-        preview = os.path.splitext(path)[0] + ".png"
-        result.write_preview(preview)
-        written.file(preview)
-        return preview
-
-    @staticmethod
-    def _add(sink, fields, attributes, geometry, name):
-        feature = QgsFeature(fields)
-        feature.setAttributes(attributes)
-        feature.setGeometry(geometry)
-        if not sink.addFeature(feature, QgsFeatureSink.Flag.FastInsert):
-            raise QgsProcessingException(f"Could not write block {attributes[0]} to {name}: {sink.lastError()}")
-
-
 def _says(message, text):
     """Whether the core's progress ``message`` is ``text``, or holds it as a part (a cluster's
     "Cluster 1/2: ..." made by core.progress.Text)."""
     if isinstance(message, str) and str.__eq__(message, text):
         return True
     return any(_says(part, text) for part in getattr(message, "parts", ()))
-
-
-class _Cancelled(Exception):
-    """A cancel while the outputs are written: what was written is removed, then the run stops."""
-
-
-def _sink_value(value, context):
-    """A sink parameter's value as the user gave it: a path, URI, ``memory:`` or ``TEMPORARY_OUTPUT``."""
-    from qgis.core import QgsProcessingOutputLayerDefinition
-
-    if isinstance(value, QgsProcessingOutputLayerDefinition):
-        value, _ = value.sink.valueAsString(context.expressionContext(), "")
-    return value if isinstance(value, str) else ""

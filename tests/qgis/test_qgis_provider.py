@@ -145,8 +145,8 @@ def test_missing_python_package_gives_the_pip_command(processing, district, tmp_
 def test_field_values_are_plain_python_numbers(urbanvox_plugin):
     import numpy as np
 
-    from urbanvox.processing_provider.algorithms.base import (BLOCK_FIELDS, CITY_FIELDS, block_attributes,
-                                                              field_kinds)
+    from urbanvox.processing_provider.algorithms.outputs import (BLOCK_FIELDS, CITY_FIELDS, block_attributes,
+                                                                 field_kinds)
 
     row = {name: (np.int64(3) if kind != "double" else np.float32(1.5)) for name, kind in BLOCK_FIELDS}
     row.update(mesh_volume=2.5, max_dist=float("nan"), extra_count=7, building_ids="a;b")
