@@ -356,28 +356,45 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
     ... except UrbanvoxError as error:
     ...     print(error)
     The voxel grid (10000 x 10000 x 200 = 20000000000 voxels at 0.5) needs about 298.0 GiB
-    but only 0.9 GiB is available. Use a voxel size of at least 3.6, or a smaller area.
+    but only 0.93 GiB is available. Use a voxel size of at least 3.6, or a smaller area.
     """
     n = math.prod(int(side) for side in shape)  # Python's integers: a tiny voxel's count overflows int64
     needed = n * bytes_per_voxel
     if available is None:
         available = available_memory()
     if needed > available:
-        # Voxel count scales with 1/size^3 (2-D extent) or at least 1/size^2;
-        # suggest the cube-root scaling, rounded up so the suggestion fits.
-        factor = (needed / available) ** (1.0 / 3.0)
-        suggestion = rounded_up(voxel_size * factor * 1.05)
+        # Voxel count scales with 1/size^3 (2-D extent) or at least 1/size^2:
+        # the cube-root scaling is suggested.
         tile = _fitting_tile(shape[2], voxel_size, available, bytes_per_voxel)
         # Tiles help only where they are more than a halo wide and the domain's
         # 2-D fields (core.tiles) fit.
         tiles_fit = tile >= _SMALLEST_TILE_VOXELS * voxel_size \
             and shape[0] * shape[1] * BYTES_PER_COLUMN <= available
-        raise UrbanvoxError(
-            f"The voxel grid ({shape[0]} x {shape[1]} x {shape[2]} = {n} voxels at {voxel_size:g}) "
-            f"needs about {needed / 2**30:.1f} GiB but only {available / 2**30:.1f} GiB is available. "
-            f"Use a voxel size of at least {suggestion:g}, or a smaller area"
-            + (f", or tiles of at most {tile:g} (TILE_SIZE)." if tile_hint and tiles_fit else "."))
+        raise memory_error(f"The voxel grid ({shape[0]} x {shape[1]} x {shape[2]} = {n} voxels at {voxel_size:g})",
+                           needed, available, voxel_size, 3,
+                           f", or tiles of at most {tile:g} (TILE_SIZE)." if tile_hint and tiles_fit else ".")
     return needed
+
+
+def memory_error(what: str, needed: int, available: int, voxel_size: float, dimensions: int,
+                 end: str = ".") -> UrbanvoxError:
+    """The error for ``what`` needing ``needed`` bytes of ``available``: the
+    estimate, and the voxel size that fits where the bytes scale with
+    1/size^``dimensions`` (rounded up, 5 % to spare), then ``end``.
+
+    Examples
+    --------
+    >>> print(memory_error("The grid", 8 * 2**30, 2**30, 0.5, 3))
+    The grid needs about 8.0 GiB but only 1.0 GiB is available. Use a voxel size of at least 1.1, or a smaller area.
+    """
+    suggestion = rounded_up(voxel_size * (needed / available) ** (1.0 / dimensions) * 1.05)
+    return UrbanvoxError(f"{what} needs about {_gib(needed)} GiB but only {_gib(available)} GiB is available. "
+                         f"Use a voxel size of at least {suggestion:g}, or a smaller area{end}")
+
+
+def _gib(size: int) -> str:
+    """Bytes in GiB, with two decimals below one."""
+    return f"{size / 2**30:.{1 if size >= 2**30 else 2}f}"
 
 
 def check_column_memory(shape: tuple[int, int], voxel_size: float, available: int | None = None) -> int:
@@ -393,18 +410,15 @@ def check_column_memory(shape: tuple[int, int], voxel_size: float, available: in
     ...     check_column_memory((10**6, 10**6), 1.0, available=10**9)
     ... except UrbanvoxError as error:
     ...     print(error)
-    The domain's 1000000 x 1000000 columns at 1 need about 59604.6 GiB for its ground level alone
-    but only 0.9 GiB is available. Use a voxel size of at least 270, or a smaller area.
+    The ground level of the domain's 1000000 x 1000000 columns at 1 needs about 59604.6 GiB
+    but only 0.93 GiB is available. Use a voxel size of at least 270, or a smaller area.
     """
     needed = math.prod(int(side) for side in shape) * BYTES_PER_COLUMN
     if available is None:
         available = available_memory()
     if needed > available:
-        suggestion = rounded_up(voxel_size * (needed / available) ** 0.5 * 1.05)
-        raise UrbanvoxError(
-            f"The domain's {shape[0]} x {shape[1]} columns at {voxel_size:g} need about {needed / 2**30:.1f} GiB "
-            f"for its ground level alone but only {available / 2**30:.1f} GiB is available. "
-            f"Use a voxel size of at least {suggestion:g}, or a smaller area.")
+        raise memory_error(f"The ground level of the domain's {shape[0]} x {shape[1]} columns at {voxel_size:g}",
+                           needed, available, voxel_size, 2)
     return needed
 
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from . import jit
 from .errors import Cancelled, UrbanvoxError
-from .grid import rounded_up
+from .grid import memory_error
 from .topology import run_starts, sorted_unique
 
 #: Bytes per point of :func:`sample_thinned` while its chunks' cells are merged
@@ -262,7 +262,7 @@ def check_sample_memory(corner_sets: Sequence[np.ndarray], cell: float, voxel_si
     ...     check_sample_memory([box], 1e-3 / 3, 1e-3, available=10**9)
     ... except UrbanvoxError as error:
     ...     print(error)
-    The mesh's 200 m² of surface at a voxel size of 0.001 need about 89.41 GiB of sample points
+    Sampling the mesh's 200 m² of surface at a voxel size of 0.001 needs about 89.4 GiB
     but only 0.93 GiB is available. Use a voxel size of at least 0.011, or a smaller area.
     """
     area = 0.0
@@ -274,11 +274,8 @@ def check_sample_memory(corner_sets: Sequence[np.ndarray], cell: float, voxel_si
         return 0  # the voxel size is refused with its own message
     needed = int(area / (1.5 * cell**2) * THINNED_POINT_BYTES)
     if needed > available:
-        suggestion = rounded_up(voxel_size * (needed / available) ** 0.5 * 1.05)
-        raise UrbanvoxError(
-            f"The mesh's {area * unit**2:.0f} m² of surface at a voxel size of {voxel_size:g} need about "
-            f"{needed / 2**30:.2f} GiB of sample points but only {available / 2**30:.2f} GiB is available. "
-            f"Use a voxel size of at least {suggestion:g}, or a smaller area.")
+        raise memory_error(f"Sampling the mesh's {area * unit**2:.0f} m² of surface at a voxel size of {voxel_size:g}",
+                           needed, available, voxel_size, 2)
     return needed
 
 

@@ -217,6 +217,6 @@ def test_a_voxel_far_too_small_for_a_mesh_is_refused_before_sampling(district):
     from core.pipeline import ReconstructionParams, reconstruct_mesh
 
     start = time.perf_counter()
-    with pytest.raises(UrbanvoxError, match=r"sample points .* voxel size of at least (\d|\.)+"):
+    with pytest.raises(UrbanvoxError, match=r"Sampling the mesh.* voxel size of at least (\d|\.)+"):
         reconstruct_mesh(district.stl, crs=district.crs, params=ReconstructionParams(voxel_size=0.001))
     assert time.perf_counter() - start < 30

@@ -205,7 +205,7 @@ def test_a_tiled_domain_too_wide_for_its_columns_is_refused_before_allocating(di
     from core.grid import check_column_memory
 
     params = ReconstructionParams(voxel_size=2.0, max_memory=2**16)  # 64 kiB: the district's columns need more
-    with pytest.raises(UrbanvoxError, match="ground level alone"):
+    with pytest.raises(UrbanvoxError, match="The ground level of the domain"):
         reconstruct_point_cloud(district.laz, params=params, tiles=TileOptions(tile_size=40.0))
     assert check_column_memory((100, 100), 2.0, available=2**20) == 640000
 

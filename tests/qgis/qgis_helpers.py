@@ -3,6 +3,36 @@
 import json
 
 
+def recording_feedback(cancel_at=None):
+    """A QgsProcessingFeedback that keeps its progress, texts, infos and warnings; cancels at ``cancel_at`` %."""
+    from qgis.core import QgsProcessingFeedback
+
+    class Recording(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.progress, self.texts, self.infos, self.warnings = [], [], [], []
+            self.progressChanged.connect(self._on_progress)
+
+        def _on_progress(self, value):
+            self.progress.append(value)
+            if cancel_at is not None and value >= cancel_at:
+                self.cancel()
+
+        def setProgressText(self, text):  # noqa: N802
+            self.texts.append(text)
+            super().setProgressText(text)
+
+        def pushInfo(self, info):  # noqa: N802
+            self.infos.append(info)
+            super().pushInfo(info)
+
+        def pushWarning(self, warning):  # noqa: N802
+            self.warnings.append(warning)
+            super().pushWarning(warning)
+
+    return Recording()
+
+
 def gpkg_sink(path, table):
     """The sink URI writing layer ``table`` of GeoPackage ``path`` (several layers per file)."""
     return f"ogr:dbname='{path}' table=\"{table}\" (geom)"

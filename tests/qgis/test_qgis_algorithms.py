@@ -4,35 +4,9 @@ import math
 from pathlib import Path
 
 import pytest
-from qgis_helpers import gpkg_outputs, gpkg_sink, read_layer
+from qgis_helpers import gpkg_outputs, gpkg_sink, read_layer, recording_feedback
 
 FIELDS = ["block_id", "height", "ground_z", "top_z", "footprint_area", "volume", "surface_area", "n_voxels"]
-
-
-def make_feedback(cancel_at=None):
-    """A QgsProcessingFeedback that records progress, texts and warnings; cancels at ``cancel_at`` %."""
-    from qgis.core import QgsProcessingFeedback
-
-    class Recording(QgsProcessingFeedback):
-        def __init__(self):
-            super().__init__()
-            self.progress, self.texts, self.warnings = [], [], []
-            self.progressChanged.connect(self._on_progress)
-
-        def _on_progress(self, value):
-            self.progress.append(value)
-            if cancel_at is not None and value >= cancel_at:
-                self.cancel()
-
-        def setProgressText(self, text):  # noqa: N802
-            self.texts.append(text)
-            super().setProgressText(text)
-
-        def pushWarning(self, warning):  # noqa: N802
-            self.warnings.append(warning)
-            super().pushWarning(warning)
-
-    return Recording()
 
 
 def check_outputs(results, gpkg, crs_authid):
@@ -85,7 +59,7 @@ def check_against_truth(footprints, district, volume_tolerance):
 
 def test_point_cloud_on_the_synthetic_district(processing, district, tmp_path):
     gpkg = tmp_path / "pointcloud.gpkg"
-    feedback = make_feedback()
+    feedback = recording_feedback()
     results = processing.run(
         "urbanvox:reconstructfrompointcloud",
         {"INPUT": str(district.laz), "VOXEL_SIZE": 1.0, **gpkg_outputs(gpkg)},
@@ -106,7 +80,7 @@ def test_a_french_qgis_shows_the_run_in_french(processing, district, tmp_path):
 
     translator = urbanvox.load_translation("fr")
     assert translator is not None
-    feedback = make_feedback()
+    feedback = recording_feedback()
     try:
         processing.run("urbanvox:reconstructfrompointcloud",
                        {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "SMOOTHING_ITERATIONS": 3,
@@ -195,7 +169,7 @@ def test_thresholds_that_drop_every_block_give_empty_layers(processing, district
     # No block left: the layers are written, empty, with the ground (the
     # footprints of no column raised an IndexError once).
     gpkg = tmp_path / "none.gpkg"
-    feedback = make_feedback()
+    feedback = recording_feedback()
     results = processing.run(
         "urbanvox:reconstructfrompointcloud",
         {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "MIN_HEIGHT": 500.0, **gpkg_outputs(gpkg),
@@ -275,7 +249,7 @@ def test_cancel_stops_the_run_and_writes_nothing(processing, district, tmp_path)
     from qgis.core import QgsProcessingException
 
     gpkg = tmp_path / "out.gpkg"
-    feedback = make_feedback(cancel_at=15.0)
+    feedback = recording_feedback(cancel_at=15.0)
     with pytest.raises(QgsProcessingException) as err:
         processing.run(
             "urbanvox:reconstructfrompointcloud",
@@ -301,7 +275,7 @@ def test_smoothed_outputs_ground_layer_mesh_file_and_preview(processing, distric
     """Paper §4 outputs: smoothed blocks with mesh measures, the terrain, a mesh file and a PNG."""
     gpkg = tmp_path / "smoothed.gpkg"
     mesh = tmp_path / "district.obj"
-    feedback = make_feedback()
+    feedback = recording_feedback()
     results = processing.run(
         "urbanvox:reconstructfrompointcloud",
         {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, "SMOOTHING_ITERATIONS": 3, "PROJECT": True,

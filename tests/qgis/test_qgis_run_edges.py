@@ -8,7 +8,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from qgis_helpers import gpkg_outputs, gpkg_sink, read_layer
+from qgis_helpers import gpkg_outputs, gpkg_sink, read_layer, recording_feedback
 
 #: A part of the synthetic district (EPSG:2056), as test_qgis_algorithms uses it.
 DISTRICT_BOX = (2600000.0, 1200000.0, 2600250.0, 1200250.0)
@@ -17,32 +17,6 @@ DISTRICT_BOX = (2600000.0, 1200000.0, 2600250.0, 1200250.0)
 ALL_FIELDS = ["block_id", "height", "ground_z", "top_z", "footprint_area", "volume", "surface_area", "n_voxels",
               "mesh_volume", "mesh_area", "roof_area", "facade_area", "min_quality", "mean_quality", "mean_dist",
               "max_dist"]
-
-
-def recording_feedback(cancel_at=None):
-    """A QgsProcessingFeedback that keeps its progress, infos and warnings; cancels at ``cancel_at`` %."""
-    from qgis.core import QgsProcessingFeedback
-
-    class Recording(QgsProcessingFeedback):
-        def __init__(self):
-            super().__init__()
-            self.progress, self.infos, self.warnings = [], [], []
-            self.progressChanged.connect(self._on_progress)
-
-        def _on_progress(self, value):
-            self.progress.append(value)
-            if cancel_at is not None and value >= cancel_at:
-                self.cancel()
-
-        def pushInfo(self, info):  # noqa: N802
-            self.infos.append(info)
-            super().pushInfo(info)
-
-        def pushWarning(self, warning):  # noqa: N802
-            self.warnings.append(warning)
-            super().pushWarning(warning)
-
-    return Recording()
 
 
 def box_in(box, source, target):
