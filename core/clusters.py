@@ -61,7 +61,7 @@ def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
     # (floor and the division are monotone).
     lowest, highest = bounds(present)
     span = float(np.max(highest[:2] - lowest[:2]))
-    if not span / gap < _KEY_ROW:  # NaN too
+    if not span / gap < _KEY_ROW - 2:  # NaN too; a cell and its neighbours keep keys of their own
         raise UrbanvoxError(f"The data span {span:.4g} units across: far more than any city. A point far away "
                             "(a corrupt coordinate or scale in a file) or files of different coordinate "
                             "systems? Crop the data (EXTENT) or fix the file.")
@@ -76,11 +76,11 @@ def split_clusters(parts: Sequence[np.ndarray], gap: float) -> list[np.ndarray]:
         mask[cells(points, rows)] = True
         return mask
 
+    if shape[0] * shape[1] > DENSE_CELLS:
+        return _split_sparse(parts, cells)
     # Blocks of points on all cores, each marking a grid of its own (a few
     # kB): no table of every point's cells, 4 arrays of 8 bytes a point (the
     # 2 km city's 50 M points: 2.8-3.4 s -> 0.9 s, most of it fresh pages).
-    if shape[0] * shape[1] > DENSE_CELLS:
-        return _split_sparse(parts, cells)
     occupied = np.zeros(shape, dtype=bool)
     for points in present:
         for mask in map_blocks(lambda rows, points=points: occupied_by(points, rows),

@@ -66,7 +66,7 @@ def check_output_path(path: str | Path, suffixes: tuple[str, ...] | None = MESH_
     path = Path(path)
     if suffixes is not None and path.suffix.lower() not in suffixes:
         raise UrbanvoxError(f"Unknown mesh format '{path.suffix}' ({path}): use one of {', '.join(suffixes)}.")
-    folder = path.parent if str(path.parent) else Path(".")
+    folder = path.parent  # "." for a bare file name
     if path.is_dir():
         raise UrbanvoxError(f"{path} is a folder: give a file name in it.")
     if not folder.is_dir():

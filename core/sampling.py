@@ -242,9 +242,11 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
 
 def check_sample_memory(corner_sets: Sequence[np.ndarray], cell: float, voxel_size: float,
                         available: int, unit: float = 1.0) -> int:
-    """Estimate the bytes of :func:`sample_thinned`'s points over triangles of
-    every corner set (a mesh's buildings, its ground); refuse before sampling
-    if more than ``available``, with the voxel size that fits.
+    """Estimate the bytes of :func:`sample_thinned`'s points in cells of side
+    ``cell`` over the triangles of every corner set (a mesh's buildings, its
+    ground; ``unit`` metres per coordinate unit); refuse before sampling if
+    more than ``available``, with the voxel size (``voxel_size``, in metres)
+    that fits.
 
     A surface of area A fills at least A / (1.5 cell^2) cells of side ``cell``
     (a plane cuts a cube in at most 1.3 of its face's area): a point each,
