@@ -178,8 +178,9 @@ def merge(parts: list[Reconstruction]) -> Reconstruction:
     for part in parts:
         for stage, seconds in part.timings.items():
             timings[stage] = timings.get(stage, 0.0) + seconds
-    warnings.append(Text("The data fall into {} separate clusters, each reconstructed on its own grid; every "
-                         "cluster has its own ground and air volumes.", len(parts)))
+    if len(parts) > 1:  # one part: the others were ground alone, far from any building, left out
+        warnings.append(Text("The data fall into {} separate clusters, each reconstructed on its own grid; every "
+                             "cluster has its own ground and air volumes.", len(parts)))
     return Reconstruction(crs=parts[0].crs, grid=grid, blocks=table, surface=surface, mesh=mesh,
                           measures=measure, footprint_columns=np.concatenate(columns),
                           warnings=warnings, timings=timings,

@@ -325,6 +325,22 @@ def test_parameters_out_of_range_are_refused_when_made(values, says):
     ReconstructionParams(smoothing_iterations=np.int64(2), support=np.float32(0.6))  # numpy numbers are numbers
 
 
+def test_a_stray_ground_point_far_away_is_left_out_silently(district):
+    """One ground point 600 km away (a corrupt record): a cluster of its own with
+    no building, left out; the model is the district's, and no "1 separate
+    clusters" is said."""
+    from core.pipeline import reconstruct_points
+    from core.readers.las import read_point_clouds
+
+    points = read_point_clouds([district.laz])
+    params = ReconstructionParams(voxel_size=2.0)
+    plain = reconstruct_points(points.ground.copy(), points.building.copy(), points.crs, params, airborne=True)
+    stray = np.concatenate([points.ground, points.ground[:1] + [6e5, 0, 0]])
+    result = reconstruct_points(stray, points.building.copy(), points.crs, params, airborne=True)
+    assert result.block_rows() == plain.block_rows()
+    assert not any("separate clusters" in str(w) for w in result.warnings)
+
+
 def test_point_arrays_of_another_shape_are_refused():
     """(N, 2) or (N, 4) arrays are no (x, y, z) rows: refused, not reshaped into scrambled points."""
     from core.pipeline import reconstruct_points
