@@ -59,6 +59,7 @@ from .sampling import check_sample_memory
 from .smooth import NodeRoles, smooth
 from .surface import SurfaceModel, region_volume
 from .tiles import TileOptions, reconstruct_tiled
+from .topology import surface_area
 from .vectors import all_finite, finite_rows
 
 #: Above this share of hollow building columns (air under a roof), a mesh's
@@ -228,11 +229,9 @@ def reconstruct_mesh(path: str | Path, *, crs: str | None = None, ground_path: s
     report(0.0, "Reading mesh")
     crs_obj, triangles, ground_triangles, warnings = read_surfaces(path, crs, ground_path, lod, is_cancelled)
     unit = metres_per_unit(crs_obj)
-    check_sample_memory([mesh.corners() for mesh in (triangles, ground_triangles) if mesh is not None],
-                        params.voxel_size / unit / 3, params.voxel_size, params.max_memory or available_memory(), unit)
     report(MESH_READ_SHARE, "Sampling triangles")
     ground, building = sample_surfaces(triangles, ground_triangles, params.voxel_size / unit, unit, is_cancelled,
-                                       part(report, MESH_READ_SHARE, MESH_SAMPLE_SHARE))
+                                       part(report, MESH_READ_SHARE, MESH_SAMPLE_SHARE), params.max_memory)
     if fill_under_roofs:
         params = replace(params, max_roof_hole_area=0.0)
     result = reconstruct_points(ground, building, crs_obj, params, airborne=fill_under_roofs, warnings=warnings,
@@ -290,12 +289,18 @@ def read_surfaces(path: str | Path, crs: str | None = None, ground_path: str | P
 
 def sample_surfaces(triangles, ground_triangles, h: float, unit: float,
                     is_cancelled: CancelCheck | None = None,
-                    progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray]:
+                    progress: Progress | None = None,
+                    max_memory: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Ground and building points of :func:`read_surfaces`' triangles, for voxels
     of ``h`` CRS units (``unit`` metres each); ``progress`` goes over the
-    samples made."""
+    samples made. Refused before sampling if their points would need more
+    than ``max_memory`` bytes (default: the memory available,
+    :func:`core.sampling.check_sample_memory`)."""
     from .readers.mesh import base_points
     from .sampling import estimate_sample_count, sample_thinned
+
+    area = sum(surface_area(mesh.vertices, mesh.faces) for mesh in (triangles, ground_triangles) if mesh is not None)
+    check_sample_memory(area, h / 3, h * unit, max_memory or available_memory(), unit)
 
     # Samples at 10 % of a voxel (paper §2), kept as one mean point per third
     # of a voxel: the same voxel occupancy, a tenth of the points.

@@ -25,7 +25,7 @@ Example
 
 from __future__ import annotations
 
-from typing import Callable, Iterator, Sequence
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -240,13 +240,11 @@ def sample_thinned(corners: np.ndarray, spacing: float, cell: float,
     return merged / total[:, None]
 
 
-def check_sample_memory(corner_sets: Sequence[np.ndarray], cell: float, voxel_size: float,
-                        available: int, unit: float = 1.0) -> int:
+def check_sample_memory(area: float, cell: float, voxel_size: float, available: int, unit: float = 1.0) -> int:
     """Estimate the bytes of :func:`sample_thinned`'s points in cells of side
-    ``cell`` over the triangles of every corner set (a mesh's buildings, its
-    ground; ``unit`` metres per coordinate unit); refuse before sampling if
-    more than ``available``, with the voxel size (``voxel_size``, in metres)
-    that fits.
+    ``cell`` over triangles of ``area`` (coordinate units², ``unit`` metres
+    each: :func:`core.topology.surface_area`); refuse before sampling if more
+    than ``available``, with the voxel size (``voxel_size``, in metres) that fits.
 
     A surface of area A fills at least A / (1.5 cell^2) cells of side ``cell``
     (a plane cuts a cube in at most 1.3 of its face's area): a point each,
@@ -257,21 +255,15 @@ def check_sample_memory(corner_sets: Sequence[np.ndarray], cell: float, voxel_si
 
     Examples
     --------
-    >>> box = np.array([[[0.0, 0, 0], [20, 0, 0], [0, 20, 0]]])
-    >>> check_sample_memory([box], 1 / 3, 1.0, available=10**9)
+    >>> check_sample_memory(200.0, 1 / 3, 1.0, available=10**9)
     96000
     >>> try:
-    ...     check_sample_memory([box], 1e-3 / 3, 1e-3, available=10**9)
+    ...     check_sample_memory(200.0, 1e-3 / 3, 1e-3, available=10**9)
     ... except UrbanvoxError as error:
     ...     print(error)
     Sampling the mesh's 200 m² of surface at a voxel size of 0.001 needs about 89.4 GiB
     but only 0.93 GiB is available. Use a voxel size of at least 0.011, or a smaller area.
     """
-    area = 0.0
-    for corners in corner_sets:
-        corners = np.asarray(corners, dtype=np.float64).reshape(-1, 3, 3)
-        area += 0.5 * float(np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]),
-                                           axis=1).sum())
     if not (np.isfinite(cell) and cell > 0):
         return 0  # the voxel size is refused with its own message
     needed = int(area / (1.5 * cell**2) * THINNED_POINT_BYTES)
