@@ -112,7 +112,7 @@ class TileJob:
     building: np.ndarray
     level: GroundLevel    # the domain's ground level, cropped to the window
     crs_wkt: str
-    params: "ReconstructionParams"  # noqa: F821 - core.pipeline
+    params: "ReconstructionParams"  # noqa: F821 - core.inputs
     airborne: bool
     halo: int
 

@@ -277,7 +277,7 @@ def test_overwrite_points_moves_the_input_in_place_and_changes_no_result(distric
 
 
 def test_non_finite_points_are_dropped_with_a_warning():
-    from core.pipeline import _finite
+    from core.inputs import _finite
 
     points = np.arange(30.0).reshape(10, 3)
     warnings: list[str] = []
