@@ -39,11 +39,16 @@ from .topology import sorted_unique
 _CANDIDATES = 16
 #: Faces tested at a time; rows of their candidate tables per block on a core.
 _FACES, _ROWS = 1 << 17, 4096
+#: The share of the elimination's progress the first pass takes: it tests
+#: every building/air face (1.6 M on the 1 km synthetic city at 1 m, 0.55 of
+#: the 0.75 s the passes took), the next ones only those the removals exposed.
+FIRST_PASS_SHARE = 0.75
 
 
 def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
                           support: float = 0.6, extrude_roofs: bool = False, max_passes: int = 10,
-                          is_cancelled: Callable[[], bool] | None = None, search=None) -> int:
+                          is_cancelled: Callable[[], bool] | None = None, search=None,
+                          progress: Callable[[float], None] | None = None) -> np.ndarray:
     """Turn unsupported boundary voxels into air, in place, until none is left.
 
     The paper's single pass leaves the voxels it exposes untested: a voxel
@@ -67,6 +72,10 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
         (:func:`core.neighbours.point_index`; a KD-tree is made otherwise).
         A compiled column index tests the faces with
         :mod:`core.support_kernel`: the same answers, faster.
+    progress : callable, optional
+        ``progress(share)``, the share of the work done: within the first
+        pass after each block of faces tested, then after each pass (their
+        number is not known beforehand: each takes half of what is left).
 
     Returns
     -------
@@ -92,6 +101,7 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
     stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
     exposed = None  # flat indices of voxels next to the last removals
     removed = []
+    done = 0.0  # the share of the progress reported
     for _ in range(max_passes):
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
@@ -99,9 +109,12 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
         cells, axis, sign = air_faces(flat, candidates, shape, stride)
         if len(cells) == 0:
             break
+        share = FIRST_PASS_SHARE if exposed is None else 0.5 * (1.0 - done)
+        tested = None if progress is None else (lambda part, start=done, share=share: progress(start + share * part))
         # take and compress: row gathers faster than indexing (core.vectors).
         # sorted_unique: a stable sort, faster on these keys, listed in runs (core.topology).
-        gone = sorted_unique(cells.compress(~test(cells, axis, sign), axis=0) @ stride)
+        gone = sorted_unique(cells.compress(~test(cells, axis, sign, tested), axis=0) @ stride)
+        done += share
         if len(gone) == 0:
             break
         flat[gone] = AIR
@@ -172,7 +185,9 @@ class _SupportTest:
         self.search = None if not len(points) else search if search is not None else search_tree(points)
         self._tree_2d = None
 
-    def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:
+    def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray,
+                 tested: Callable[[float], None] | None = None) -> np.ndarray:
+        """Whether each face is supported; ``tested(share)`` after each block of faces."""
         if self.search is None:
             return np.zeros(len(cells), dtype=bool)
         # A block of faces at a time: the candidate tables (faces x 16 or 32
@@ -182,6 +197,8 @@ class _SupportTest:
         supported = np.empty(len(cells), dtype=bool)
         for block in row_blocks(len(cells), _FACES):
             supported[block] = self._supported(cells[block], axis[block], sign[block])
+            if tested is not None:
+                tested(block.stop / len(cells))
         return supported
 
     def _supported(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:

@@ -101,6 +101,24 @@ def part(progress: Progress | None, start: float, end: float, label: str | None 
     return report
 
 
+def part_with_message(progress: Progress | None, start: float, end: float,
+                      message: str) -> Callable[[float], None] | None:
+    """``report(share)`` for a part of the work that spans ``start`` to
+    ``end`` of the whole and says one ``message`` throughout (its share done
+    is all it knows). None stays None.
+
+    Examples
+    --------
+    >>> seen = []
+    >>> passes = part_with_message(lambda f, m: seen.append((round(f, 3), m)), 0.1, 0.2, "Eliminating")
+    >>> passes(0.5)
+    >>> seen
+    [(0.15, 'Eliminating')]
+    """
+    report = part(progress, start, end)
+    return None if report is None else lambda share: report(share, message)
+
+
 def counted(report: Callable[[float], None] | None, total: int) -> Callable[[int], None] | None:
     """``done(count)`` for threads that each finish some of ``total`` items
     (blocks of rows on the pool's threads): ``report(share)`` with the share

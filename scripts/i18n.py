@@ -53,8 +53,8 @@ def source_strings() -> list[str]:
     """The constant texts of the source that reach the translator while an algorithm runs:
     ``tr("...")`` in processing_provider/, and in core/ the messages given to ``report`` or
     ``progress`` as constants, the templates of ``Text("...", ...)`` (core.progress: progress
-    texts and the warnings most runs give), the labels given to ``part`` and the parts given to
-    ``report_part`` (core.project). Needs no QGIS."""
+    texts and the warnings most runs give), the labels given to ``part``, the messages given to
+    ``part_with_message`` and the parts given to ``report_part`` (core.project). Needs no QGIS."""
     found: list[str] = []
     for folder, wanted in (("processing_provider", _provider_text), ("core", _progress_text)):
         for path in sorted((ROOT / folder).rglob("*.py")):
@@ -83,6 +83,8 @@ def _progress_text(call: ast.Call) -> str | None:
         return _constant(call.args[0])
     if _name(call) in ("report", "progress") and len(call.args) >= 2:
         return _constant(call.args[1])
+    if _name(call) == "part_with_message" and len(call.args) >= 4:  # core.progress's
+        return _constant(call.args[3])
     if _name(call) == "part":  # core.progress.part's label
         keywords = {k.arg: k.value for k in call.keywords}
         label = call.args[3] if len(call.args) >= 4 else keywords.get("label")

@@ -211,6 +211,11 @@ def test_progress_is_reported_through_every_stage(district):
     assert sorted(set(ground), key=ground.index) == [f"Projecting ground nodes: {p}" for p in parts[:4]]
     projection = [f for f, m in seen if m.startswith("Projecting")]
     assert len(set(projection)) >= 7
+    # The elimination moves the bar within its step: passes, then the repair and the blocks.
+    elimination = [f for f, m in seen if m == "Eliminating unsupported boundary voxels"]
+    start, end = (READ_SHARE + (1 - READ_SHARE) * STEP_STARTS[step] for step in ("eliminate", "surface"))
+    assert elimination[0] == pytest.approx(start) and len(set(elimination)) >= 4
+    assert elimination[-1] == pytest.approx(start + 0.85 * (end - start))
 
 
 def test_projection_and_measures_move_the_bar_block_by_block_with_the_same_model(district, monkeypatch):

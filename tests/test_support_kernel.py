@@ -177,6 +177,29 @@ def test_the_elimination_removes_the_same_voxels_with_the_kernel(kernel):
         assert np.array_equal(kernel_labels, numpy_labels)
 
 
+def test_the_elimination_reports_its_share_done_block_by_block(monkeypatch):
+    # Blocks of 100 faces: the first pass reports after each up to its share,
+    # each later pass takes half of what is left; the voxels removed are the same.
+    import core.eliminate as eliminate
+
+    g, labels, points = partly_supported_block()
+    flat, shape = labels.reshape(-1), np.array(g.shape)
+    faces = len(eliminate.air_faces(flat, np.flatnonzero(flat == BUILDING), shape,
+                                    np.array([shape[1] * shape[2], shape[2], 1]))[0])
+    expected = labels.copy()
+    removed = eliminate_unsupported(expected, g, points, extrude_roofs=True, search=search_tree(points))
+    monkeypatch.setattr(eliminate, "_FACES", 100)
+    shares = []
+    got = eliminate_unsupported(labels, g, points, extrude_roofs=True, search=search_tree(points),
+                                progress=shares.append)
+    assert np.array_equal(got, removed) and np.array_equal(labels, expected)
+    first = -(-faces // 100)  # blocks of the first pass
+    assert faces > 900 and shares[:first] == pytest.approx(eliminate.FIRST_PASS_SHARE * np.minimum(
+        np.arange(1, first + 1) * 100, faces) / faces)
+    later = shares[first:]
+    assert later and shares == sorted(shares) and shares[-1] < 1.0
+
+
 def test_no_data_supports_no_face():
     # A 2-voxel building and no building point: both voxels go, whatever search is given.
     g = VoxelGrid(np.zeros(3), np.zeros(3), 1.0, (1, 1, 4))
