@@ -30,8 +30,10 @@ from __future__ import annotations
 
 import functools
 import os
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -39,6 +41,7 @@ from . import jit
 from .errors import UrbanvoxError
 from .heap import reusing_freed_memory
 from .parallel import map_ahead
+from .progress import CancelCheck, check_cancel
 from .row_text import encoded_block, encoded_rows
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel, rank_in, unique_pairs
 
@@ -83,7 +86,7 @@ def region_name(region: int) -> str:
 
 @reusing_freed_memory()
 def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray, binary: bool = False,
-               triangles: SurfaceModel | None = None) -> Path:
+               triangles: SurfaceModel | None = None, is_cancelled: CancelCheck | None = None) -> Path:
     """Write the model's regions to ``path``; the suffix picks the format.
 
     Parameters
@@ -101,21 +104,46 @@ def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray, binary
         OBJ and STL text: a binary STL cannot name its solids) and ignore it.
     triangles : SurfaceModel, optional
         ``model.triangulated()``, when the caller has it.
+    is_cancelled : callable, optional
+        Asked before every write into the file (a block of rows at most):
+        :class:`core.errors.Cancelled` then, and nothing is left at ``path``
+        (the file is written into a temporary beside it, renamed when whole).
     """
     path = check_output_path(path)
     suffix = path.suffix.lower()
     writers = {".obj": _write_obj, ".stl": _write_stl, ".ply": _write_ply, ".vtu": _write_vtu,
-               ".msh": lambda path, tri, world: _write_msh(path, model, tri, world, binary)}
+               ".msh": lambda path, tri, world, cancel: _write_msh(path, model, tri, world, binary, cancel)}
+    check_cancel(is_cancelled)
     tri = triangles if triangles is not None else model.triangulated()
     world = tri.nodes + np.asarray(offset, dtype=np.float64)
     temporary = path.with_name(f".{path.name}.part")
     try:
-        writers[suffix](temporary, tri, world)
+        writers[suffix](temporary, tri, world, is_cancelled)
         os.replace(temporary, path)
     finally:
         if temporary.exists():
             temporary.unlink()
     return path
+
+
+@contextmanager
+def _opened(path: Path, mode: str, is_cancelled: CancelCheck | None) -> Iterator:
+    """``open(path, mode)``, whose writes first check ``is_cancelled``."""
+    with open(path, mode, **({} if "b" in mode else {"encoding": "ascii"})) as out:
+        yield out if is_cancelled is None else _CheckedFile(out, is_cancelled)
+
+
+class _CheckedFile:
+    """A file that raises :class:`core.errors.Cancelled` instead of writing
+    once ``is_cancelled`` says so: the writers write a block of rows at a
+    time, so a cancel waits for one block, not for the file."""
+
+    def __init__(self, out, is_cancelled: CancelCheck):
+        self.out, self.is_cancelled = out, is_cancelled
+
+    def write(self, data) -> int:
+        check_cancel(self.is_cancelled)
+        return self.out.write(data)
 
 
 def _regions(model: SurfaceModel) -> list[int]:
@@ -146,10 +174,10 @@ def _grouped_surfaces(model: SurfaceModel, regions: list[int]) -> tuple[np.ndarr
     return faces, np.concatenate([[0], np.cumsum(counts)])
 
 
-def _write_obj(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
+def _write_obj(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled: CancelCheck | None = None) -> None:
     regions = _regions(model)
     faces, bounds = _grouped_surfaces(model, regions)
-    with open(path, "wb") as out:  # ASCII text, written as bytes (core.row_text)
+    with _opened(path, "wb", is_cancelled) as out:  # ASCII text, written as bytes (core.row_text)
         out.write(b"# urbanvox: one closed, outward surface per region\n")
         _write_rows(out, "v %.4f %.4f %.4f", world)
         for i, region in enumerate(regions):
@@ -157,13 +185,13 @@ def _write_obj(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
             _write_rows(out, "f %d %d %d", faces[bounds[i]:bounds[i + 1]] + 1)
 
 
-def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
+def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled: CancelCheck | None = None) -> None:
     regions = _regions(model)
     faces, bounds = _grouped_surfaces(model, regions)
     # Each node's text once: every node is a corner of a dozen facets.
     node_text = _formatted("%.4f %.4f %.4f", world)
     facet = "facet normal %s\n outer loop\n  vertex %s\n  vertex %s\n  vertex %s\n endloop\nendfacet\n"
-    with open(path, "w", encoding="ascii") as out:
+    with _opened(path, "w", is_cancelled) as out:
         for i, region in enumerate(regions):
             name = region_name(region)
             out.write(f"solid {name}\n")
@@ -179,7 +207,7 @@ def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
             out.write(f"endsolid {name}\n")
 
 
-def _write_ply(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
+def _write_ply(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled: CancelCheck | None = None) -> None:
     # Every region's closed surface in one pass (a scan of all faces per
     # region would cost regions x faces).
     faces, labels = model.closed_surfaces(_regions(model))
@@ -188,7 +216,7 @@ def _write_ply(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
               f"element face {len(faces)}\nproperty list uchar int vertex_indices\n"
               "property int region\nend_header\n")
     face_dtype = np.dtype([("n", "u1"), ("v", "<i4", (3,)), ("region", "<i4")])
-    with open(path, "wb") as out:
+    with _opened(path, "wb", is_cancelled) as out:
         out.write(header.encode("ascii"))
         out.write(np.ascontiguousarray(world, dtype="<f8").data)  # no copy of the float64 nodes
         # The face records _ROWS at a time: a table of them all, then its
@@ -202,7 +230,8 @@ def _write_ply(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
             out.write(block.tobytes())
 
 
-def _write_vtu(path: Path, model: SurfaceModel, world: np.ndarray) -> None:
+def _write_vtu(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled: CancelCheck | None = None) -> None:
+    """meshio writes the file in one call: a cancel is checked before it only."""
     try:
         import meshio
     except ImportError as error:  # pragma: no cover - dependency message
@@ -390,7 +419,7 @@ def _msh_entities(faces: np.ndarray, which: np.ndarray, side_rank: np.ndarray,
 
 
 def _write_msh(path: Path, model: SurfaceModel, tri: SurfaceModel, world: np.ndarray,
-               binary: bool = False) -> None:
+               binary: bool = False, is_cancelled: CancelCheck | None = None) -> None:
     """gmsh 4.1, ASCII or binary, with the entity topology of :func:`_msh_topology`.
 
     ``tri`` is ``model.triangulated()``. All nodes are in one block on the
@@ -399,10 +428,12 @@ def _write_msh(path: Path, model: SurfaceModel, tri: SurfaceModel, world: np.nda
     patch in one block.
     """
     topology = _msh_topology(model, world, tri if tri is not model else None)
-    (_write_msh_binary if binary else _write_msh_ascii)(path, topology, world)
+    check_cancel(is_cancelled)
+    (_write_msh_binary if binary else _write_msh_ascii)(path, topology, world, is_cancelled)
 
 
-def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> None:
+def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray,
+                     is_cancelled: CancelCheck | None = None) -> None:
     """The text encoding: coordinates and entity boxes to 0.1 mm."""
     t = topology
     n_nodes, n_faces, n_patches = len(world), len(t.faces), len(t.patch_physical)
@@ -415,7 +446,7 @@ def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> N
         lines.append(f"{v} {_box(t.shell_box[v - 1])} 1 {physical} {len(tags)} " + " ".join(map(str, tags.tolist())))
     lines.append("$EndEntities")
     lines += ["$Nodes", f"1 {n_nodes} 1 {n_nodes}", f"2 1 0 {n_nodes}"]
-    with open(path, "wb") as out:  # ASCII text, written as bytes (core.row_text)
+    with _opened(path, "wb", is_cancelled) as out:  # ASCII text, written as bytes (core.row_text)
         out.write(("\n".join(lines) + "\n").encode("ascii"))
         _write_rows(out, "%d", np.arange(1, n_nodes + 1)[:, None])
         _write_rows(out, "%.4f %.4f %.4f", world)
@@ -438,7 +469,8 @@ def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray) -> N
         out.write(b"$EndElements\n")
 
 
-def _write_msh_binary(path: Path, topology: _MshTopology, world: np.ndarray) -> None:
+def _write_msh_binary(path: Path, topology: _MshTopology, world: np.ndarray,
+                      is_cancelled: CancelCheck | None = None) -> None:
     """The same file in gmsh's binary encoding: little-endian ``int`` (4
     bytes), ``size_t`` (8) and ``double``; coordinates are written exactly,
     not rounded to 0.1 mm as in the text."""
@@ -454,7 +486,7 @@ def _write_msh_binary(path: Path, topology: _MshTopology, world: np.ndarray) -> 
     surfaces["box"] = t.patch_box
     surfaces["n_physical"] = 1
     surfaces["physical"] = t.patch_physical
-    with open(path, "wb") as out:
+    with _opened(path, "wb", is_cancelled) as out:
         out.write(b"$MeshFormat\n4.1 1 8\n" + np.array(1, "<i4").tobytes() + b"\n$EndMeshFormat\n")
         out.write(("\n".join(["$PhysicalNames", str(len(t.names)), *t.names, "$EndPhysicalNames"]) + "\n")
                   .encode("ascii"))

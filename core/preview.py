@@ -18,6 +18,7 @@ import numpy as np
 
 from . import jit
 from .heap import reusing_freed_memory
+from .progress import CancelCheck, check_cancel
 from .surface import AIR_REGION, GROUND_REGION, SurfaceModel, rank_in
 from .topology import run_starts
 from .vectors import minus
@@ -277,7 +278,7 @@ def _fill_specks(image: np.ndarray) -> np.ndarray:
 
 @reusing_freed_memory()
 def write_preview(path: str | Path, panels: list[tuple[SurfaceModel, str]],
-                  block_heights: dict[int, float]) -> Path:
+                  block_heights: dict[int, float], is_cancelled: CancelCheck | None = None) -> Path:
     """Draw one or more models side by side (e.g. voxels, then the final mesh).
 
     Parameters
@@ -287,6 +288,9 @@ def write_preview(path: str | Path, panels: list[tuple[SurfaceModel, str]],
     panels : list of (SurfaceModel, title)
     block_heights : dict
         Height (m) of every block id, for the colours.
+    is_cancelled : callable, optional
+        Asked before each panel is drawn and before the file is written
+        (:class:`core.errors.Cancelled` then, and no file).
     """
     # A figure of its own on the Agg canvas, not pyplot's: the host's backend
     # and open figures stay as they were (pyplot's switch of backend closes
@@ -301,9 +305,11 @@ def write_preview(path: str | Path, panels: list[tuple[SurfaceModel, str]],
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, len(panels), squeeze=False)
     for ax, (model, title) in zip(axes[0], panels):
+        check_cancel(is_cancelled)
         _panel(ax, model, block_heights, vmax, title)
     mappable = cm.ScalarMappable(cmap="viridis", norm=Normalize(0, vmax))
     fig.colorbar(mappable, ax=axes[0].tolist(), shrink=0.6, label="block height (m)")
     path = Path(path)
+    check_cancel(is_cancelled)
     fig.savefig(path, bbox_inches="tight")
     return path

@@ -214,22 +214,25 @@ class Reconstruction:
         return self._triangles
 
     @reusing_freed_memory()
-    def write_mesh(self, path, binary: bool = False) -> "Path":
+    def write_mesh(self, path, binary: bool = False, is_cancelled=None) -> "Path":
         """Write the final conforming mesh; the suffix picks the format, ``binary``
-        the encoding of a ``.msh`` (:func:`core.export.write_mesh`)."""
+        the encoding of a ``.msh``; a cancel stops it between blocks of rows and
+        leaves no file (:func:`core.export.write_mesh`)."""
         from .export import write_mesh
 
-        return write_mesh(path, self.mesh, self.grid.offset, binary=binary, triangles=self.mesh_triangles)
+        return write_mesh(path, self.mesh, self.grid.offset, binary=binary, triangles=self.mesh_triangles,
+                          is_cancelled=is_cancelled)
 
-    def write_preview(self, path, before_after: bool = True) -> "Path":
-        """PNG picture, blocks coloured by height; voxels beside the final mesh."""
+    def write_preview(self, path, before_after: bool = True, is_cancelled=None) -> "Path":
+        """PNG picture, blocks coloured by height; voxels beside the final mesh
+        (a cancel stops it between the panels, :func:`core.preview.write_preview`)."""
         from .preview import write_preview
 
         heights = {row["block_id"]: row["height"] for row in self.block_rows()}
         panels = [(self.mesh, "smoothed and projected (§4)")]
         if before_after:
             panels.insert(0, (self.surface, "voxel model (§3)"))
-        return write_preview(path, panels, heights)
+        return write_preview(path, panels, heights, is_cancelled=is_cancelled)
 
     def footprint_wkb(self) -> list[bytes]:
         """Footprint of every block (the outline of its columns, :mod:`core.footprint`)

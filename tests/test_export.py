@@ -197,6 +197,37 @@ def test_preview_leaves_matplotlib_as_the_host_had_it(result, tmp_path):
         matplotlib.use(backend)
 
 
+@pytest.mark.parametrize("name,binary", [("city.obj", False), ("city.stl", False), ("city.ply", False),
+                                         ("city.msh", False), ("city.msh", True)])
+def test_a_cancel_while_the_mesh_is_written_stops_it_and_leaves_no_file(result, tmp_path, monkeypatch, name, binary):
+    """Blocks of 500 rows: the cancel, said at the writer's fifth check, stops it within the file
+    (Cancelled), and neither the file nor its temporary is left; without a cancel the checks are
+    made all along and the file is the one written without them."""
+    from core import export, row_text
+    from core.errors import Cancelled
+
+    monkeypatch.setattr(export, "_ROWS", 500)
+    monkeypatch.setattr(row_text, "_BLOCK", 500)
+    checks = []
+    whole = result.write_mesh(tmp_path / ("whole-" + name), binary=binary,
+                              is_cancelled=lambda: checks.append(1) and False)
+    assert len(checks) > 20 and whole.read_bytes() == result.write_mesh(tmp_path / name, binary=binary).read_bytes()
+    (tmp_path / name).unlink()
+    checks.clear()
+    with pytest.raises(Cancelled):
+        result.write_mesh(tmp_path / name, binary=binary, is_cancelled=lambda: len(checks.append(1) or checks) >= 5)
+    assert len(checks) == 5 and sorted(p.name for p in tmp_path.iterdir()) == ["whole-" + name]
+
+
+def test_a_cancel_before_the_preview_is_drawn_leaves_no_picture(result, tmp_path):
+    from core.errors import Cancelled
+
+    checks = []
+    with pytest.raises(Cancelled):
+        result.write_preview(tmp_path / "city.png", is_cancelled=lambda: len(checks.append(1) or checks) >= 2)
+    assert len(checks) == 2 and list(tmp_path.iterdir()) == []
+
+
 def _face_parts(faces, n_nodes):
     """Parts of faces connected through shared nodes, numbered by first face (reference)."""
     from scipy.sparse import coo_matrix

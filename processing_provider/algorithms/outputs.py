@@ -367,16 +367,18 @@ class OutputWriter:
     @staticmethod
     def _write_mesh(result, path, binary, written, is_cancelled):
         """Write the mesh file ``path`` and its preview picture beside it, each noted in ``written``
-        once there; returns the picture's path. A cancel stops it before each (the core writes a
-        file whole: into a temporary, renamed when complete)."""
-        if is_cancelled():
-            raise _Cancelled()
-        result.write_mesh(path, binary=binary)
-        written.file(path)
-        if is_cancelled():
-            raise _Cancelled()
-        preview = os.path.splitext(path)[0] + ".png"
-        result.write_preview(preview)
+        once there; returns the picture's path. A cancel stops either on the way and leaves no file
+        of it (the core writes the mesh into a temporary, renamed when complete, and checks the
+        cancel between blocks of rows; the picture between its panels)."""
+        from ...core.errors import Cancelled
+
+        try:
+            result.write_mesh(path, binary=binary, is_cancelled=is_cancelled)
+            written.file(path)
+            preview = os.path.splitext(path)[0] + ".png"
+            result.write_preview(preview, is_cancelled=is_cancelled)
+        except Cancelled:
+            raise _Cancelled() from None
         written.file(preview)
         return preview
 

@@ -103,6 +103,29 @@ def test_a_cancel_while_the_outputs_are_written_stops_and_leaves_none(processing
     assert sorted(os.listdir(tmp_path)) == []
 
 
+def test_a_cancel_inside_the_mesh_writer_stops_the_run_and_leaves_none(processing, district, tmp_path, monkeypatch):
+    """The mesh thread gives the core writer the feedback's cancel check: cancelled while the .msh's
+    rows are written (the writer's third check), the run says so and leaves no file."""
+    from qgis.core import QgsProcessingException
+
+    from urbanvox.core.reconstruction import Reconstruction
+
+    write_mesh = Reconstruction.write_mesh
+    checks = []
+
+    def cancelled_inside(self, path, binary=False, is_cancelled=None):
+        assert is_cancelled is not None and not is_cancelled()  # the feedback's, not cancelled yet
+        return write_mesh(self, path, binary, is_cancelled=lambda: len(checks.append(1) or checks) >= 3)
+
+    monkeypatch.setattr(Reconstruction, "write_mesh", cancelled_inside)
+    gpkg = tmp_path / "out.gpkg"
+    with pytest.raises(QgsProcessingException, match="Cancelled; no output was written"):
+        processing.run("urbanvox:reconstructfrompointcloud",
+                       {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, **gpkg_outputs(gpkg),
+                        "OUTPUT_MESH": str(tmp_path / "district.msh")})
+    assert len(checks) == 3 and sorted(os.listdir(tmp_path)) == []
+
+
 def test_a_cancel_while_writing_keeps_the_other_layers_of_an_existing_geopackage(processing, district, tmp_path):
     """Outputs written as layers of a GeoPackage that held a layer before: the cancel drops the layers
     this run added, the file and its own layer stay."""
@@ -162,7 +185,7 @@ def test_a_mesh_file_that_fails_while_written_leaves_no_layer(processing, distri
 
     from urbanvox.core.reconstruction import Reconstruction
 
-    def full_disk(self, path, binary=False):
+    def full_disk(self, path, binary=False, is_cancelled=None):
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(Reconstruction, "write_mesh", full_disk)
