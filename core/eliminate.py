@@ -11,7 +11,19 @@ airborne LiDAR has no point at the foot of a wall. For airborne point clouds
 (``extrude_roofs=True``) a wall face is also supported by a point *above*
 it within the support distance horizontally: an airborne scan sees the roof
 edge, not the facade, and the facade is the roof edge extruded down to the
-ground. Without that rule every wall voxel under the roof would go.
+ground. Without that rule every wall voxel under the roof would go. The
+top face of a voxel whose voxel above a pass removed is supported from
+above too (a point above it within the support distance of its square, in
+plan): under a gap in the roof's points it lies under the roof around the
+gap. Without that rule each later pass took the next voxel down, a well
+dug through the building (to the ground, or ten voxels deep when the
+passes were capped at ten): on the 1 km synthetic city at 0.5 m voxels
+(10 points/m², a roof column in twelve without a point of its own) 124
+passes took 2.35 M voxels and the final volumes' median error against the
+truth was 1.55 % (1.04 % capped at ten passes); now 0.74 %. At 1 m the
+rule changes little (0.43 -> 0.45 %; the district 0.42 % either way). The
+first pass's top faces keep the paper's test: a roof point of a higher
+part beside a lower roof is not the lower roof's data.
 
 How near is near: a point supports a face when its distance to the face's
 square is at most the support distance and it lies in the ball around the
@@ -46,7 +58,7 @@ FIRST_PASS_SHARE = 0.75
 
 
 def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarray,
-                          support: float = 0.6, extrude_roofs: bool = False, max_passes: int = 10,
+                          support: float = 0.6, extrude_roofs: bool = False, max_passes: int | None = None,
                           is_cancelled: Callable[[], bool] | None = None, search=None,
                           progress: Callable[[float], None] | None = None) -> np.ndarray:
     """Turn unsupported boundary voxels into air, in place, until none is left.
@@ -66,7 +78,10 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
     support : float
         Support distance in voxel sizes (paper: 0.6).
     extrude_roofs : bool
-        Also accept points above a wall face (airborne data, see module doc).
+        Also accept points above a wall or top face (airborne data, see module doc).
+    max_passes : int, optional
+        At most this many passes (each removes a voxel or ends them); all
+        that are needed by default.
     search : cKDTree or ColumnIndex, optional
         The search over ``points`` the caller has
         (:func:`core.neighbours.point_index`; a KD-tree is made otherwise).
@@ -102,7 +117,9 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
     exposed = None  # flat indices of voxels next to the last removals
     removed = []
     done = 0.0  # the share of the progress reported
-    for _ in range(max_passes):
+    passes = 0
+    while max_passes is None or passes < max_passes:
+        passes += 1
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
         candidates = np.flatnonzero(flat == BUILDING) if exposed is None else exposed[flat[exposed] == BUILDING]
@@ -113,7 +130,9 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
         tested = None if progress is None else (lambda part, start=done, share=share: progress(start + share * part))
         # take and compress: row gathers faster than indexing (core.vectors).
         # sorted_unique: a stable sort, faster on these keys, listed in runs (core.topology).
-        gone = sorted_unique(cells.compress(~test(cells, axis, sign, tested), axis=0) @ stride)
+        # A top face in a later pass is one a removal exposed (the others passed the first).
+        supported = test(cells, axis, sign, tops_from_above=exposed is not None, tested=tested)
+        gone = sorted_unique(cells.compress(~supported, axis=0) @ stride)
         done += share
         if len(gone) == 0:
             break
@@ -185,9 +204,11 @@ class _SupportTest:
         self.search = None if not len(points) else search if search is not None else search_tree(points)
         self._tree_2d = None
 
-    def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray,
+    def __call__(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray, tops_from_above: bool = False,
                  tested: Callable[[float], None] | None = None) -> np.ndarray:
-        """Whether each face is supported; ``tested(share)`` after each block of faces."""
+        """Whether each face is supported (with ``extrude_roofs``, the top faces
+        from above too if ``tops_from_above``); ``tested(share)`` after each
+        block of faces."""
         if self.search is None:
             return np.zeros(len(cells), dtype=bool)
         # A block of faces at a time: the candidate tables (faces x 16 or 32
@@ -196,20 +217,22 @@ class _SupportTest:
         # its own, so the blocks give the answers of one pass.
         supported = np.empty(len(cells), dtype=bool)
         for block in row_blocks(len(cells), _FACES):
-            supported[block] = self._supported(cells[block], axis[block], sign[block])
+            supported[block] = self._supported(cells[block], axis[block], sign[block], tops_from_above)
             if tested is not None:
                 tested(block.stop / len(cells))
         return supported
 
-    def _supported(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray) -> np.ndarray:
+    def _supported(self, cells: np.ndarray, axis: np.ndarray, sign: np.ndarray,
+                   tops_from_above: bool) -> np.ndarray:
         h = self.grid.voxel_size
         centre = self.grid.origin + (cells + 0.5) * h
         centre[np.arange(len(cells)), axis] += sign * 0.5 * h
         supported = self._near(centre, axis, h)
         if self.extrude_roofs:
-            wall = ~supported & (axis < 2)
-            if wall.any():
-                supported[wall] = self._above(centre.compress(wall, axis=0), axis[wall], h)
+            # The walls, and the tops a removal exposed: the roof extruded down (module doc).
+            under = ~supported & ((axis < 2) | ((sign > 0) & tops_from_above))
+            if under.any():
+                supported[under] = self._above(centre.compress(under, axis=0), axis[under], h)
         return supported
 
     def _near(self, centre: np.ndarray, axis: np.ndarray, h: float) -> np.ndarray:
@@ -219,12 +242,20 @@ class _SupportTest:
         return supported_near(kd_tree(self.search, self.points), self.points, centre, axis, h, self.support)
 
     def _above(self, centre: np.ndarray, axis: np.ndarray, h: float) -> np.ndarray:
-        found = self._compiled("supported_above", centre, axis, h, _ball_2d(h, self.support))
+        """The walls, then the tops, each kind in the ball in plan that holds its zone."""
+        found = np.empty(len(axis), dtype=bool)
+        for faces, ball in ((axis < 2, _ball_2d(h, self.support)), (axis == 2, _ball_top(h, self.support))):
+            if faces.any():
+                found[faces] = self._above_of(centre.compress(faces, axis=0), axis[faces], h, ball)
+        return found
+
+    def _above_of(self, centre: np.ndarray, axis: np.ndarray, h: float, ball: float) -> np.ndarray:
+        found = self._compiled("supported_above", centre, axis, h, ball)
         if found is not None:
             return found
         if self._tree_2d is None:
             self._tree_2d = search_tree(self.points[:, :2])
-        return supported_above(self._tree_2d, self.points, centre, axis, h, self.support)
+        return supported_above(self._tree_2d, self.points, centre, axis, h, self.support, ball)
 
     def _compiled(self, function: str, centre: np.ndarray, axis: np.ndarray, h: float,
                   ball: float) -> np.ndarray | None:
@@ -253,6 +284,12 @@ def _ball_2d(h: float, support: float) -> float:
     """Radius in plan of the points that may support a wall face from above
     (as :func:`_ball_3d`, across the face and up to half its width along it)."""
     return float(np.sqrt(support**2 + 0.25) * h)
+
+
+def _ball_top(h: float, support: float) -> float:
+    """Radius in plan of the points that may support a top face from above:
+    all within the support distance of its square (the roof around it)."""
+    return float((np.sqrt(0.5) + support) * h)
 
 
 def supported_near(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: np.ndarray,
@@ -304,21 +341,30 @@ def supported_near(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: 
 
 
 def supported_above(tree_2d: cKDTree, points: np.ndarray, centre: np.ndarray, axis: np.ndarray,
-                    h: float, support: float) -> np.ndarray:
-    """Whether a point above each wall face lies within ``support * h`` of it horizontally.
+                    h: float, support: float, ball: float | None = None) -> np.ndarray:
+    """Whether a point above each wall or top face lies within ``support * h`` of it horizontally.
 
-    Above: no lower than half a voxel below the face's centre; among the
-    points strictly within :func:`_ball_2d` of the centre in plan
-    (``tree_2d`` is over their x, y), every one looked at, as in
+    Above: no lower than half a voxel below the face's centre. Within the
+    support distance: of a wall (``axis`` 0 or 1) across it, up to half its
+    width along it; of a top face (``axis`` 2) past its square's edges, in
+    plan. Among the points strictly within ``ball`` of the centre in plan
+    (:func:`_ball_2d` for walls, the default; :func:`_ball_top` for tops;
+    ``tree_2d`` is over their x, y), every one looked at, as in
     :func:`supported_near`. :func:`core.support_kernel.supported_above`
     gives the same answers.
 
     Examples
     --------
+    A roof edge 3 m above a wall face at x = 1, and a face with nothing above;
+    then the top face of a voxel under a roof point 0.4 beyond its edge:
+
     >>> points = np.array([[0.9, 0.5, 3.5]])
     >>> centre = np.array([[1.0, 0.5, 0.5], [1.0, 5.5, 0.5]])
     >>> supported_above(search_tree(points[:, :2]), points, centre, np.array([0, 0]), 1.0, 0.6).tolist()
     [True, False]
+    >>> top = np.array([[1.9, 0.5, 2.0]])
+    >>> supported_above(search_tree(points[:, :2]), points, top, np.array([2]), 1.0, 0.6, _ball_top(1.0, 0.6)).tolist()
+    [True]
     """
     half, r_inner = 0.5 * h, support * h
     r_inner2 = r_inner * r_inner
@@ -330,14 +376,15 @@ def supported_above(tree_2d: cKDTree, points: np.ndarray, centre: np.ndarray, ax
         near = np.where(valid, near, 0)
         dx = np.abs(points[:, 0][near] - at[:, 0, None])
         dy = np.abs(points[:, 1][near] - at[:, 1, None])
-        across = np.where(face_axis == 0, dx, dy)
-        along = np.maximum(np.where(face_axis == 0, dy, dx) - half, 0.0)
+        # A wall: across it, and along it past its edge; a top: past its edges, both ways.
+        across = np.where(face_axis == 0, dx, np.where(face_axis == 1, dy, np.maximum(dx - half, 0.0)))
+        along = np.maximum(np.where(face_axis == 0, dy, np.where(face_axis == 1, dx, dy)) - half, 0.0)
         above = points[:, 2][near] >= at[:, None, 2] - half
         return (valid & above & (across * across + along * along <= r_inner2)).any(axis=1)
 
     supported = np.zeros(len(centre), dtype=bool)
     _any_candidate(tree_2d, points, centre[:, :2], np.arange(len(centre)), 2 * _CANDIDATES,
-                   _ball_2d(h, support), test, supported)
+                   _ball_2d(h, support) if ball is None else ball, test, supported)
     return supported
 
 

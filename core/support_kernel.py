@@ -1,8 +1,8 @@
 """Compiled support test of the elimination (numba, :mod:`core.jit`).
 
 Whether a data point supports each building/air face (:mod:`core.eliminate`):
-a point within ``support`` voxel sizes of the face, or for a wall of an
-airborne scan, above it within that distance horizontally. numpy asks a
+a point within ``support`` voxel sizes of the face, or for a wall or a top
+of an airborne scan, above it within that distance horizontally. numpy asks a
 KD-tree for the nearest points around each face and tests them: about 2 s
 of the 1 km synthetic city, most of it searches for points it then throws
 away. Here each face walks the columns of the point index
@@ -51,8 +51,9 @@ def supported_near(index: ColumnIndex, centre: np.ndarray, axis: np.ndarray, h: 
 def supported_above(index: ColumnIndex, centre: np.ndarray, axis: np.ndarray, h: float, support: float,
                     r_outer: float) -> np.ndarray:
     """Whether a point of ``index`` no lower than half a voxel below each
-    wall face's centre lies within ``support * h`` of the face horizontally,
-    among the points strictly within ``r_outer`` of the centre in plan.
+    wall or top face's centre lies within ``support * h`` of the face
+    horizontally (:func:`core.eliminate.supported_above`), among the points
+    strictly within ``r_outer`` of the centre in plan.
 
     Examples
     --------
@@ -179,8 +180,12 @@ def _above(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, 
                 t += 1
                 if dx * dx + dy * dy >= r_outer2:
                     continue
-                across = abs(dx) if a == 0 else abs(dy)
-                along = max((abs(dy) if a == 0 else abs(dx)) - half, 0.0)
+                # A wall: across it, and along it past its edge; a top: past its edges, both ways.
+                if a == 2:
+                    across, along = max(abs(dx) - half, 0.0), max(abs(dy) - half, 0.0)
+                else:
+                    across = abs(dx) if a == 0 else abs(dy)
+                    along = max((abs(dy) if a == 0 else abs(dx)) - half, 0.0)
                 found = across * across + along * along <= r_inner2
             if found:
                 break

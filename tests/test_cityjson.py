@@ -315,9 +315,12 @@ def test_zurich_cityjson_gives_the_blocks_of_its_stl(shared_data):
     # STL's walls moved by up to 0.125 m move whole rows of voxels of a narrow building.
     large = from_stl.blocks.volume > 1000
     assert from_json.blocks.volume[large] == pytest.approx(from_stl.blocks.volume[large], rel=0.1)
+    # The figures this method gives (not a truth: most of the 49 buildings' surfaces are not closed).
+    # With the elimination's passes capped at ten they were 171,100 and 153,400 m³: a sliver of
+    # unsupported wall voxels was left half eaten along one building.
     for result in (from_json, from_stl):
-        assert float(result.blocks.volume.sum()) == pytest.approx(171_200, rel=0.003)
-        assert float(result.measures.volume.sum()) == pytest.approx(153_500, rel=0.003)
+        assert float(result.blocks.volume.sum()) == pytest.approx(170_480, rel=0.003)
+        assert float(result.measures.volume.sum()) == pytest.approx(152_840, rel=0.003)
 
 
 def _as_sequence(source, path):
