@@ -41,8 +41,8 @@ from . import jit
 from .errors import UrbanvoxError
 from .heap import reusing_freed_memory
 from .parallel import map_ahead
-from .progress import CancelCheck, check_cancel
-from .row_text import encoded_block, encoded_rows
+from .progress import CancelCheck, cancel_checked, check_cancel
+from .row_text import encoded_block, row_texts, write_rows
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel, rank_in, unique_pairs
 
 MESH_FORMATS = (".obj", ".stl", ".ply", ".vtu", ".msh")
@@ -128,22 +128,11 @@ def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray, binary
 
 @contextmanager
 def _opened(path: Path, mode: str, is_cancelled: CancelCheck | None) -> Iterator:
-    """``open(path, mode)``, whose writes first check ``is_cancelled``."""
+    """``open(path, mode)`` (ASCII text, or bytes), each write checking ``is_cancelled``
+    first: the writers write a block of rows at a time, so a cancel waits for
+    one block, not for the file."""
     with open(path, mode, **({} if "b" in mode else {"encoding": "ascii"})) as out:
-        yield out if is_cancelled is None else _CheckedFile(out, is_cancelled)
-
-
-class _CheckedFile:
-    """A file that raises :class:`core.errors.Cancelled` instead of writing
-    once ``is_cancelled`` says so: the writers write a block of rows at a
-    time, so a cancel waits for one block, not for the file."""
-
-    def __init__(self, out, is_cancelled: CancelCheck):
-        self.out, self.is_cancelled = out, is_cancelled
-
-    def write(self, data) -> int:
-        check_cancel(self.is_cancelled)
-        return self.out.write(data)
+        yield cancel_checked(out, is_cancelled)
 
 
 def _regions(model: SurfaceModel) -> list[int]:
@@ -179,17 +168,17 @@ def _write_obj(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled:
     faces, bounds = _grouped_surfaces(model, regions)
     with _opened(path, "wb", is_cancelled) as out:  # ASCII text, written as bytes (core.row_text)
         out.write(b"# urbanvox: one closed, outward surface per region\n")
-        _write_rows(out, "v %.4f %.4f %.4f", world)
+        write_rows(out, "v %.4f %.4f %.4f", world)
         for i, region in enumerate(regions):
             out.write(f"g {region_name(region)}\n".encode("ascii"))
-            _write_rows(out, "f %d %d %d", faces[bounds[i]:bounds[i + 1]] + 1)
+            write_rows(out, "f %d %d %d", faces[bounds[i]:bounds[i + 1]] + 1)
 
 
 def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled: CancelCheck | None = None) -> None:
     regions = _regions(model)
     faces, bounds = _grouped_surfaces(model, regions)
     # Each node's text once: every node is a corner of a dozen facets.
-    node_text = _formatted("%.4f %.4f %.4f", world)
+    node_text = row_texts("%.4f %.4f %.4f", world)
     facet = "facet normal %s\n outer loop\n  vertex %s\n  vertex %s\n  vertex %s\n endloop\nendfacet\n"
     with _opened(path, "w", is_cancelled) as out:
         for i, region in enumerate(regions):
@@ -201,7 +190,7 @@ def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled:
                 normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
                 normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
                 fields = np.empty((len(corner), 4), dtype=object)
-                fields[:, 0] = _formatted("%.6e %.6e %.6e", normal)
+                fields[:, 0] = row_texts("%.6e %.6e %.6e", normal)
                 fields[:, 1:] = node_text[corner]
                 out.write(facet * len(corner) % tuple(fields.ravel().tolist()))
             out.write(f"endsolid {name}\n")
@@ -448,8 +437,8 @@ def _write_msh_ascii(path: Path, topology: _MshTopology, world: np.ndarray,
     lines += ["$Nodes", f"1 {n_nodes} 1 {n_nodes}", f"2 1 0 {n_nodes}"]
     with _opened(path, "wb", is_cancelled) as out:  # ASCII text, written as bytes (core.row_text)
         out.write(("\n".join(lines) + "\n").encode("ascii"))
-        _write_rows(out, "%d", np.arange(1, n_nodes + 1)[:, None])
-        _write_rows(out, "%.4f %.4f %.4f", world)
+        write_rows(out, "%d", np.arange(1, n_nodes + 1)[:, None])
+        write_rows(out, "%.4f %.4f %.4f", world)
         out.write(b"$EndNodes\n$Elements\n")
         out.write(f"{n_patches} {n_faces} 1 {n_faces}\n".encode("ascii"))
         row_format = " ".join(["%d"] * (t.faces.shape[1] + 1))
@@ -606,20 +595,3 @@ def _linked_parts(item: np.ndarray, group: np.ndarray, node: np.ndarray, n_items
     pair_part = np.concatenate([labels[n_items + plain], labels[n_items + n_nodes:]])
     return labels[:n_items], pair, pair_part
 
-
-def _write_rows(out, row_format: str, rows: np.ndarray) -> None:
-    """``np.savetxt(out, rows, fmt=row_format)`` into a binary file: the same
-    text, a block of rows at a time (:mod:`core.row_text`)."""
-    for text in encoded_rows(row_format, rows):
-        out.write(text)
-
-
-def _formatted(row_format: str, rows: np.ndarray) -> np.ndarray:
-    """The text of every row (an object array of str), as :func:`_write_rows` writes it."""
-    text = np.empty(len(rows), dtype=object)
-    start = 0
-    for block in encoded_rows(row_format, rows):
-        lines = block.decode("ascii").split("\n")[:-1]
-        text[start:start + len(lines)] = lines
-        start += len(lines)
-    return text

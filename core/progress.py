@@ -32,6 +32,31 @@ def check_cancel(is_cancelled: CancelCheck | None) -> None:
         raise Cancelled()
 
 
+def cancel_checked(out, is_cancelled: CancelCheck | None):
+    """``out`` (a file), or where there is a cancel check, a file whose every
+    write checks it first (:class:`core.errors.Cancelled` instead of writing).
+
+    Examples
+    --------
+    >>> import io
+    >>> out = cancel_checked(io.BytesIO(), lambda: True)
+    >>> out.write(b"rows")
+    Traceback (most recent call last):
+    ...
+    core.errors.Cancelled: Cancelled by the user; no output was written.
+    """
+    return out if is_cancelled is None else _CancelCheckedFile(out, is_cancelled)
+
+
+class _CancelCheckedFile:
+    def __init__(self, out, is_cancelled: CancelCheck):
+        self.out, self.is_cancelled = out, is_cancelled
+
+    def write(self, data) -> int:
+        check_cancel(self.is_cancelled)
+        return self.out.write(data)
+
+
 class Text(str):
     """A progress message made of a template and its parts: a ``str`` equal
     to ``template.format(*parts)`` that keeps both, so that a host with a

@@ -70,6 +70,30 @@ def encoded_rows(row_format: str, rows: np.ndarray) -> Iterator[bytes]:
     yield from map_ahead(lambda block: _block_text(row_format, layout, rows[block], len(rows)), blocks)
 
 
+def write_rows(out, row_format: str, rows: np.ndarray) -> None:
+    """``np.savetxt(out, rows, fmt=row_format)`` into a binary file: the same
+    text (:func:`encoded_rows`), a block of rows at a time."""
+    for text in encoded_rows(row_format, rows):
+        out.write(text)
+
+
+def row_texts(row_format: str, rows: np.ndarray) -> np.ndarray:
+    """The text of every row, without its newline (an object array of str).
+
+    Examples
+    --------
+    >>> row_texts("%d: %.1f", np.array([[1.0, 0.25], [2.0, -3.0]])).tolist()
+    ['1: 0.2', '2: -3.0']
+    """
+    text = np.empty(len(rows), dtype=object)
+    start = 0
+    for block in encoded_rows(row_format, rows):
+        lines = block.decode("ascii").split("\n")[:-1]
+        text[start:start + len(lines)] = lines
+        start += len(lines)
+    return text
+
+
 def encoded_block(row_format: str, rows: np.ndarray, size: int | None = None) -> bytes:
     """The text of :func:`format_rows` as ASCII bytes, made on this thread:
     for a caller that runs blocks of rows on threads itself (a block of

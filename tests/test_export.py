@@ -48,7 +48,7 @@ def test_text_formats_are_the_percent_operators(result, tmp_path, monkeypatch):
     def operator_rows(out, row_format, rows):
         out.write(((row_format + "\n") * len(rows) % tuple(rows.ravel().tolist())).encode("ascii"))
 
-    monkeypatch.setattr(export, "_write_rows", operator_rows)
+    monkeypatch.setattr(export, "write_rows", operator_rows)
     for name in ("a.obj", "a.msh"):
         by_operator = result.write_mesh(tmp_path / ("b" + name[1:])).read_bytes()
         assert len(by_operator) > 10_000 and written[name] == by_operator, name
