@@ -103,11 +103,25 @@ def test_a_cancel_while_the_outputs_are_written_stops_and_leaves_none(processing
     assert sorted(os.listdir(tmp_path)) == []
 
 
+def run_failing_in_the_mesh_writer(processing, district, tmp_path, monkeypatch, write_mesh, error):
+    """A run with a mesh file ``mesh.msh``, whose ``Reconstruction.write_mesh`` is ``write_mesh``:
+    it fails with ``error`` (a pattern) once the layers are written, and leaves no file."""
+    from qgis.core import QgsProcessingException
+
+    from urbanvox.core.reconstruction import Reconstruction
+
+    monkeypatch.setattr(Reconstruction, "write_mesh", write_mesh)
+    gpkg = tmp_path / "out.gpkg"
+    with pytest.raises(QgsProcessingException, match=error):
+        processing.run("urbanvox:reconstructfrompointcloud",
+                       {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, **gpkg_outputs(gpkg),
+                        "OUTPUT_MESH": str(tmp_path / "mesh.msh")})
+    assert sorted(os.listdir(tmp_path)) == []
+
+
 def test_a_cancel_inside_the_mesh_writer_stops_the_run_and_leaves_none(processing, district, tmp_path, monkeypatch):
     """The mesh thread gives the core writer the feedback's cancel check: cancelled while the .msh's
     rows are written (the writer's third check), the run says so and leaves no file."""
-    from qgis.core import QgsProcessingException
-
     from urbanvox.core.reconstruction import Reconstruction
 
     write_mesh = Reconstruction.write_mesh
@@ -117,13 +131,9 @@ def test_a_cancel_inside_the_mesh_writer_stops_the_run_and_leaves_none(processin
         assert is_cancelled is not None and not is_cancelled()  # the feedback's, not cancelled yet
         return write_mesh(self, path, binary, is_cancelled=lambda: len(checks.append(1) or checks) >= 3)
 
-    monkeypatch.setattr(Reconstruction, "write_mesh", cancelled_inside)
-    gpkg = tmp_path / "out.gpkg"
-    with pytest.raises(QgsProcessingException, match="Cancelled; no output was written"):
-        processing.run("urbanvox:reconstructfrompointcloud",
-                       {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, **gpkg_outputs(gpkg),
-                        "OUTPUT_MESH": str(tmp_path / "district.msh")})
-    assert len(checks) == 3 and sorted(os.listdir(tmp_path)) == []
+    run_failing_in_the_mesh_writer(processing, district, tmp_path, monkeypatch, cancelled_inside,
+                                   "Cancelled; no output was written")
+    assert len(checks) == 3
 
 
 def test_a_cancel_while_writing_keeps_the_other_layers_of_an_existing_geopackage(processing, district, tmp_path):
@@ -181,20 +191,11 @@ def test_a_mesh_file_that_fails_while_written_leaves_no_layer(processing, distri
     the layers this run wrote are removed with it, and no thread of it is left."""
     import threading
 
-    from qgis.core import QgsProcessingException
-
-    from urbanvox.core.reconstruction import Reconstruction
-
     def full_disk(self, path, binary=False, is_cancelled=None):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(Reconstruction, "write_mesh", full_disk)
-    gpkg = tmp_path / "out.gpkg"
-    with pytest.raises(QgsProcessingException, match="Could not write .*mesh.msh: .*No space left"):
-        processing.run("urbanvox:reconstructfrompointcloud",
-                       {"INPUT": str(district.laz), "VOXEL_SIZE": 2.0, **gpkg_outputs(gpkg),
-                        "OUTPUT_MESH": str(tmp_path / "mesh.msh")})
-    assert sorted(os.listdir(tmp_path)) == []
+    run_failing_in_the_mesh_writer(processing, district, tmp_path, monkeypatch, full_disk,
+                                   "Could not write .*mesh.msh: .*No space left")
     assert not any(thread.name.startswith("urbanvox-mesh") for thread in threading.enumerate())
 
 
