@@ -431,11 +431,14 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
     if len(table) == 0:
         warnings.append(NO_BLOCK)
 
-    report(STEP_STARTS["surface"], "Conforming surfaces")
+    surfaces = part_with_message(report, STEP_STARTS["surface"], STEP_STARTS["smooth"], "Conforming surfaces")
+    surfaces(0.0)
     columns = block_columns(blocks, int(table.block_id.max()) if len(table) else 0)
     regions = region_volume(labels, blocks, overwrite_blocks=True)
     del labels, blocks  # before the surface's own grid-sized tables are made
-    surface = SurfaceModel.from_regions(grid, regions)
+    # The regions take 0.15 of the step, the faces' extraction the rest (the 1 km city).
+    surfaces(0.15)
+    surface = SurfaceModel.from_regions(grid, regions, progress=lambda share: surfaces(0.15 + 0.85 * share))
     del regions
     lap("surface")
     check_face_memory(len(surface.quads), grid.shape[0] * grid.shape[1], params.voxel_size, params.max_memory)

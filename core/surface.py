@@ -15,7 +15,7 @@ face must point out of the building cell which contains the face".
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -87,11 +87,15 @@ class SurfaceModel:
     regions: np.ndarray
 
     @classmethod
-    def from_regions(cls, grid: VoxelGrid, regions: np.ndarray) -> "SurfaceModel":
+    def from_regions(cls, grid: VoxelGrid, regions: np.ndarray,
+                     progress: Callable[[float], None] | None = None) -> "SurfaceModel":
         """Extract every face between two different regions.
 
         The domain is padded with ``OUTSIDE_REGION`` so the ground, the air and
         any block cut by the domain border get closing faces on the box.
+        ``progress(share)`` is told when the faces are found (0.75 of the
+        work: 0.73 of 0.98 s on the 1 km synthetic city at 1 m), before their
+        nodes are numbered.
 
         Examples
         --------
@@ -105,6 +109,8 @@ class SurfaceModel:
         """
         nx1, ny1, nz1 = (np.asarray(regions.shape) + 1)
         flat, pairs = faces_between(regions)
+        if progress is not None:
+            progress(0.75)
         used, inverse = unique_nodes(flat, nx1 * ny1 * nz1)
         del flat
         return cls(nodes=grid.node_xyz(used, int(nx1), int(ny1)), quads=inverse.reshape(-1, 4).astype(np.int64),

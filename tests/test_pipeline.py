@@ -216,6 +216,10 @@ def test_progress_is_reported_through_every_stage(district):
     start, end = (READ_SHARE + (1 - READ_SHARE) * STEP_STARTS[step] for step in ("eliminate", "surface"))
     assert elimination[0] == pytest.approx(start) and len(set(elimination)) >= 4
     assert elimination[-1] == pytest.approx(start + 0.85 * (end - start))
+    # So do the surfaces: the regions, then the faces found, then their nodes numbered.
+    surfaces = sorted(set(f for f, m in seen if m == "Conforming surfaces"))
+    start, end = (READ_SHARE + (1 - READ_SHARE) * STEP_STARTS[step] for step in ("surface", "smooth"))
+    assert surfaces == pytest.approx([start + share * (end - start) for share in (0.0, 0.15, 0.15 + 0.85 * 0.75)])
 
 
 def test_projection_and_measures_move_the_bar_block_by_block_with_the_same_model(district, monkeypatch):
