@@ -242,12 +242,7 @@ class _SupportTest:
         return supported_near(kd_tree(self.search, self.points), self.points, centre, axis, h, self.support)
 
     def _above(self, centre: np.ndarray, axis: np.ndarray, h: float) -> np.ndarray:
-        """The walls, then the tops, each kind in the ball in plan that holds its zone."""
-        found = np.empty(len(axis), dtype=bool)
-        for faces, ball in ((axis < 2, _ball_2d(h, self.support)), (axis == 2, _ball_top(h, self.support))):
-            if faces.any():
-                found[faces] = self._above_of(centre.compress(faces, axis=0), axis[faces], h, ball)
-        return found
+        return above_by_kind(lambda c, a, ball: self._above_of(c, a, h, ball), centre, axis, h, self.support)
 
     def _above_of(self, centre: np.ndarray, axis: np.ndarray, h: float, ball: float) -> np.ndarray:
         found = self._compiled("supported_above", centre, axis, h, ball)
@@ -290,6 +285,18 @@ def _ball_top(h: float, support: float) -> float:
     """Radius in plan of the points that may support a top face from above:
     all within the support distance of its square (the roof around it)."""
     return float((np.sqrt(0.5) + support) * h)
+
+
+def above_by_kind(above: Callable[[np.ndarray, np.ndarray, float], np.ndarray], centre: np.ndarray,
+                  axis: np.ndarray, h: float, support: float) -> np.ndarray:
+    """``above(centre, axis, ball)`` (:func:`supported_above`, or its compiled
+    twin) for the walls, then the tops, each kind in the ball in plan that
+    holds its zone (:func:`_ball_2d`, :func:`_ball_top`)."""
+    found = np.empty(len(axis), dtype=bool)
+    for faces, ball in ((axis < 2, _ball_2d(h, support)), (axis == 2, _ball_top(h, support))):
+        if faces.any():
+            found[faces] = above(centre.compress(faces, axis=0), axis[faces], ball)
+    return found
 
 
 def supported_near(tree: cKDTree, points: np.ndarray, centre: np.ndarray, axis: np.ndarray,

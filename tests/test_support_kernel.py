@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from core.classify import AIR, BUILDING, GROUND
-from core.eliminate import _ball_2d, _ball_3d, _ball_top, eliminate_unsupported, supported_above, supported_near
+from core.eliminate import (_ball_2d, _ball_3d, _ball_top, above_by_kind, eliminate_unsupported, supported_above,
+                            supported_near)
 from core.grid import VoxelGrid
 from core.neighbours import search_tree
 
@@ -50,15 +51,6 @@ def brute_above(points, centre, axis, h, support):
     return (in_ball & above & (across * across + along * along <= (support * h) * (support * h))).any(axis=1)
 
 
-def both_above(test, centre, axis, h, support):
-    """``test(centre, axis, ball)`` for the walls and the tops apart, each with its ball, as the
-    elimination asks."""
-    found = np.empty(len(axis), dtype=bool)
-    for faces, ball in ((axis < 2, _ball_2d(h, support)), (axis == 2, _ball_top(h, support))):
-        found[faces] = test(centre[faces], axis[faces], ball)
-    return found
-
-
 def faces_around(rng, points, n, h, lattice=False):
     """Face centres and axes near the data (on a lattice of half voxels if ``lattice``)."""
     centre = points[rng.integers(0, len(points), n)] + rng.normal(scale=0.7 * h, size=(n, 3))
@@ -91,10 +83,10 @@ def test_same_answers_as_the_tree_and_a_brute_force(kernel, h, support, spacing)
     for faces in (axis < 2, axis == 2):
         assert 0.05 < expected[faces].mean() < 0.95
     tree_2d = search_tree(points[:, :2])
-    got = both_above(lambda c, a, ball: supported_above(tree_2d, points, c, a, h, support, ball), centre, axis, h,
+    got = above_by_kind(lambda c, a, ball: supported_above(tree_2d, points, c, a, h, support, ball), centre, axis, h,
                      support)
     assert np.array_equal(got, expected)
-    got = both_above(lambda c, a, ball: kernel.supported_above(index, c, a, h, support, ball), centre, axis, h,
+    got = above_by_kind(lambda c, a, ball: kernel.supported_above(index, c, a, h, support, ball), centre, axis, h,
                      support)
     assert np.array_equal(got, expected)
 
@@ -112,11 +104,11 @@ def test_points_on_the_bounds_of_the_ball_and_the_zone(kernel):
     assert np.array_equal(supported_near(search_tree(points), points, centre, axis, h, support), expected)
     assert np.array_equal(kernel.supported_near(index, centre, axis, h, support, _ball_3d(h, support)), expected)
     expected = brute_above(points, centre, axis, h, support)
-    got = both_above(lambda c, a, ball: kernel.supported_above(index, c, a, h, support, ball), centre, axis, h,
+    got = above_by_kind(lambda c, a, ball: kernel.supported_above(index, c, a, h, support, ball), centre, axis, h,
                      support)
     assert np.array_equal(got, expected)
     tree_2d = search_tree(points[:, :2])
-    got = both_above(lambda c, a, ball: supported_above(tree_2d, points, c, a, h, support, ball), centre, axis, h,
+    got = above_by_kind(lambda c, a, ball: supported_above(tree_2d, points, c, a, h, support, ball), centre, axis, h,
                      support)
     assert np.array_equal(got, expected)
 
