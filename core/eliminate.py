@@ -66,7 +66,8 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
     The paper's single pass leaves the voxels it exposes untested: a voxel
     behind an eliminated one (typically at the foot of a wall, behind a
     column of voxels that held only a stray point) had no air face when the
-    pass ran. Later passes test only the voxels next to those just removed.
+    pass ran. Later passes test only the faces the last removals exposed
+    (:func:`exposed_faces`).
 
     Parameters
     ----------
@@ -114,7 +115,7 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
     flat = labels.reshape(-1)
     shape = np.asarray(labels.shape)
     stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
-    exposed = None  # flat indices of voxels next to the last removals
+    gone = None  # flat indices of the voxels the last pass removed
     removed = []
     done = 0.0  # the share of the progress reported
     passes = 0
@@ -122,26 +123,24 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
         passes += 1
         if is_cancelled is not None and is_cancelled():
             raise Cancelled()
-        candidates = np.flatnonzero(flat == BUILDING) if exposed is None else exposed[flat[exposed] == BUILDING]
-        cells, axis, sign = air_faces(flat, candidates, shape, stride)
+        # The faces a pass has not tested yet: the others were supported (their cell is
+        # still there), and a later pass's test supports whatever the first pass's did.
+        cells, axis, sign = boundary_faces(flat, shape, stride) if gone is None else exposed_faces(
+            flat, gone, shape, stride)
         if len(cells) == 0:
             break
-        share = FIRST_PASS_SHARE if exposed is None else 0.5 * (1.0 - done)
+        share = FIRST_PASS_SHARE if gone is None else 0.5 * (1.0 - done)
         tested = None if progress is None else (lambda part, start=done, share=share: progress(start + share * part))
         # take and compress: row gathers faster than indexing (core.vectors).
         # sorted_unique: a stable sort, faster on these keys, listed in runs (core.topology).
         # A top face in a later pass is one a removal exposed (the others passed the first).
-        supported = test(cells, axis, sign, tops_from_above=exposed is not None, tested=tested)
+        supported = test(cells, axis, sign, tops_from_above=gone is not None, tested=tested)
         gone = sorted_unique(cells.compress(~supported, axis=0) @ stride)
         done += share
         if len(gone) == 0:
             break
         flat[gone] = AIR
         removed.append(gone)
-        ijk = np.column_stack(np.unravel_index(gone, labels.shape))
-        around = (ijk[:, None, :] + _SIX[None, :, :]).reshape(-1, 3)
-        around = around.compress(np.all((around >= 0) & (around < shape), axis=1), axis=0)
-        exposed = sorted_unique(around @ stride)
     # A voxel goes once (it is air after): the passes' lists do not meet.
     return np.sort(np.concatenate(removed)) if removed else np.zeros(0, dtype=np.int64)
 
@@ -149,16 +148,14 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
 _SIX = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
 
 
-def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
-              stride: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The building/air faces of the given building cells.
+def boundary_faces(flat: np.ndarray, shape: np.ndarray,
+                   stride: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every face between a building cell and an air cell.
 
     Parameters
     ----------
     flat : ndarray of uint8
         The labels, raveled (C order).
-    cells : ndarray of int
-        Flat indices of the building cells to look at.
     shape, stride : ndarray of int
         Grid shape and the strides of the flat index.
 
@@ -169,11 +166,62 @@ def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
     axis : ndarray of int, shape (F,)
     sign : ndarray of int, shape (F,)
         +1 when the air is on the positive side of the cell.
+
+    Examples
+    --------
+    >>> flat = np.array([AIR, BUILDING, BUILDING, 1], np.uint8)  # along z, ground at the top
+    >>> cells, axis, sign = boundary_faces(flat, np.array([1, 1, 4]), np.array([4, 4, 1]))
+    >>> cells.tolist(), axis.tolist(), sign.tolist()
+    ([[0, 0, 1]], [2], [-1])
     """
-    # The same faces, counted then written on all cores (core.support_kernel).
-    found = jit.run("support_kernel", "air_faces", flat, cells, shape, AIR, size=len(cells))
+    # The same faces from a scan of the labels, without a list of every building cell (core.support_kernel).
+    found = jit.run("support_kernel", "boundary_faces", flat, shape, BUILDING, AIR, size=len(flat))
     if found is not None:
         return found
+    return air_faces(flat, np.flatnonzero(flat == BUILDING), shape, stride)
+
+
+def exposed_faces(flat: np.ndarray, gone: np.ndarray, shape: np.ndarray,
+                  stride: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The faces of the building cells next to the cells ``gone`` (flat
+    indices, just turned to air) towards them: the faces their removal
+    exposed. As :func:`boundary_faces` returns them.
+
+    Examples
+    --------
+    >>> flat = np.array([AIR, AIR, BUILDING, 1], np.uint8)  # the second cell just went
+    >>> cells, axis, sign = exposed_faces(flat, np.array([1]), np.array([1, 1, 4]), np.array([4, 4, 1]))
+    >>> cells.tolist(), axis.tolist(), sign.tolist()
+    ([[0, 0, 2]], [2], [-1])
+    """
+    # The same faces, counted then written on all cores (core.support_kernel).
+    found = jit.run("support_kernel", "exposed_faces", flat, gone, shape, BUILDING, size=len(gone))
+    if found is not None:
+        return found
+    return _faces_next_to(flat, gone, shape, stride, BUILDING, across=True)
+
+
+def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
+              stride: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The building/air faces of the given building cells (flat indices), as
+    :func:`boundary_faces` returns them: grouped by the six directions of
+    ``_SIX``, each direction's in the cells' order.
+
+    Examples
+    --------
+    >>> flat = np.array([AIR, BUILDING, BUILDING, 1], np.uint8)
+    >>> air_faces(flat, np.array([1, 2]), np.array([1, 1, 4]), np.array([4, 4, 1]))[0].tolist()
+    [[0, 0, 1]]
+    """
+    return _faces_next_to(flat, cells, shape, stride, AIR, across=False)
+
+
+def _faces_next_to(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray, stride: np.ndarray, value: int,
+                   across: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The faces between ``cells`` and their neighbours labelled ``value``,
+    direction by direction (``_SIX``), each in the cells' order: as the
+    cell's faces (air beyond) or, ``across``, as the neighbour's (the air
+    on the cell's side)."""
     ijk = np.column_stack(np.unravel_index(cells, tuple(shape)))
     out_cells, out_axis, out_sign = [], [], []
     for step in _SIX:
@@ -182,10 +230,13 @@ def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
         moved = ijk[:, axis] + step[axis]
         inside = (moved >= 0) & (moved < shape[axis])
         facing = np.zeros(len(cells), dtype=bool)
-        facing[inside] = flat[cells[inside] + step[axis] * stride[axis]] == AIR
-        out_cells.append(ijk.compress(facing, axis=0))
-        out_axis.append(np.full(int(facing.sum()), axis))
-        out_sign.append(np.full(int(facing.sum()), int(step[axis])))
+        facing[inside] = flat[cells[inside] + step[axis] * stride[axis]] == value
+        face_cells = ijk.compress(facing, axis=0)
+        if across:
+            face_cells[:, axis] += step[axis]
+        out_cells.append(face_cells)
+        out_axis.append(np.full(len(face_cells), axis))
+        out_sign.append(np.full(len(face_cells), -int(step[axis]) if across else int(step[axis])))
     return np.concatenate(out_cells), np.concatenate(out_axis), np.concatenate(out_sign)
 
 

@@ -194,8 +194,7 @@ def test_the_elimination_reports_its_share_done_block_by_block(monkeypatch):
 
     g, labels, points = partly_supported_block()
     flat, shape = labels.reshape(-1), np.array(g.shape)
-    faces = len(eliminate.air_faces(flat, np.flatnonzero(flat == BUILDING), shape,
-                                    np.array([shape[1] * shape[2], shape[2], 1]))[0])
+    faces = len(eliminate.boundary_faces(flat, shape, strides(shape))[0])
     expected = labels.copy()
     removed = eliminate_unsupported(expected, g, points, extrude_roofs=True, search=search_tree(points))
     monkeypatch.setattr(eliminate, "_FACES", 100)
@@ -265,21 +264,56 @@ def test_a_failing_kernel_leaves_the_elimination_to_numpy(kernel, monkeypatch):
     assert index.fallback is not None and len(jit.failures) == 1
 
 
-@pytest.mark.parametrize("seed", range(6))
-def test_air_faces_are_numpys(with_numpy, kernel, seed):
-    """Every building cell, and a scattered subset, of random grids with
-    building cells on the borders (faces out of the grid are not air)."""
-    from core.eliminate import air_faces
-
+def random_labels(seed: int) -> np.ndarray:
+    """Labels of a random grid, building cells on its borders too (faces out of the grid are not air)."""
     rng = np.random.default_rng(seed)
-    shape = np.array([int(v) for v in rng.integers(1, 30, 3)])
-    labels = rng.choice(np.array([GROUND, BUILDING, AIR], np.uint8), tuple(shape), p=[0.2, 0.5, 0.3])
-    flat = labels.reshape(-1)
-    stride = np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
-    every = np.flatnonzero(flat == BUILDING)
-    for cells in (every, every[rng.random(len(every)) < 0.3]):
-        expected = with_numpy(air_faces, flat, cells, shape, stride)
-        got = kernel.air_faces(flat, cells, shape, AIR)
-        for a, b in zip(got, expected):
-            assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
-    assert len(expected[0]) > 0 or len(every) == 0
+    shape = tuple(int(v) for v in rng.integers(1, 30, 3))
+    return rng.choice(np.array([GROUND, BUILDING, AIR], np.uint8), shape, p=[0.2, 0.5, 0.3])
+
+
+def strides(shape) -> np.ndarray:
+    return np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
+
+
+def same_faces(got, expected) -> None:
+    for a, b in zip(got, expected):
+        assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_boundary_faces_are_numpys(with_numpy, kernel, seed):
+    """The scan of the labels finds the faces numpy finds from the list of
+    every building cell (core.eliminate.air_faces), in its order."""
+    from core.eliminate import air_faces, boundary_faces
+
+    labels = random_labels(seed)
+    flat, shape = labels.reshape(-1), np.array(labels.shape)
+    expected = air_faces(flat, np.flatnonzero(flat == BUILDING), shape, strides(shape))
+    same_faces(with_numpy(boundary_faces, flat, shape, strides(shape)), expected)
+    same_faces(kernel.boundary_faces(flat, shape, BUILDING, AIR), expected)
+    assert len(expected[0]) > 0 or not (flat == BUILDING).any()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_exposed_faces_are_numpys_and_those_the_removals_made(with_numpy, kernel, seed):
+    """Some building cells of a random grid turned to air: the faces their
+    removal exposed (kernel and numpy alike) are the building/air faces
+    after it that were not there before, each once."""
+    from core.eliminate import boundary_faces, exposed_faces
+
+    labels = random_labels(seed)
+    flat, shape = labels.reshape(-1), np.array(labels.shape)
+    before = with_numpy(boundary_faces, flat, shape, strides(shape))
+    building = np.flatnonzero(flat == BUILDING)
+    gone = np.sort(np.random.default_rng(seed).choice(building, len(building) // 5, replace=False))
+    flat[gone] = AIR
+    expected = with_numpy(exposed_faces, flat, gone, shape, strides(shape))
+    same_faces(kernel.exposed_faces(flat, gone, shape, BUILDING), expected)
+
+    def as_set(faces):
+        cells, axis, sign = faces
+        return set(map(tuple, np.column_stack([cells, axis, sign]).tolist()))
+
+    after = with_numpy(boundary_faces, flat, shape, strides(shape))
+    new = as_set(after) - as_set(before)
+    assert len(expected[1]) == len(new) and as_set(expected) == new and len(gone) > 0
