@@ -385,7 +385,9 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
             warnings.append(sparse)
     lap("ground")
 
-    report(STEP_STARTS["classify"], "Sorting voxels into ground, building and air")
+    classifying = part_with_message(report, STEP_STARTS["classify"], STEP_STARTS["blocks"],
+                                    "Sorting voxels into ground, building and air")
+    classifying(0.0)
     seeds = None
     if airborne and len(building_cells):
         seeds = _roof_seeds(grid, building_cells, top_k, level.observed,
@@ -393,8 +395,12 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
         if len(seeds):
             warnings.append(Text("Filled {} roof-hole columns ({:.0f} m²) with no return under them.",
                                  len(seeds), len(seeds) * (h * m) ** 2))
+        # The roof holes take 0.2 of the step, the labels 0.35, their repair the
+        # rest (the 1 km city at 0.5 m: 0.6, 0.9 and 1.45 s).
+        classifying(0.2)
     labels = classify_voxels(grid, top_k, building_cells, seeds, fill_to_top=airborne,
                              is_cancelled=is_cancelled)
+    classifying(0.55)
     make_well_composed(labels, is_cancelled=is_cancelled)
     if not airborne:
         # Said without the share, so that clusters and tiles say it once (their warnings are merged).
