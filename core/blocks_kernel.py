@@ -237,28 +237,29 @@ def _renumber(labels, blocks, new_id, air, start, stop):
 @compiled
 def _count_runs(labels, value, start, stop, count):
     """The runs of ``value`` along z of each column of the slab ``start:stop``
-    of x, into ``count[column + 1]``."""
+    of x, into ``count[column + 1]``: the voxels of ``value`` whose voxel
+    below is not, counted by a loop numba vectorises."""
     nx, ny, nz = labels.shape
     for i in range(start, stop):
         for j in range(ny):
-            runs = 0
-            inside = False
-            for k in range(nz):
-                now = labels[i, j, k] == value
-                if now and not inside:
-                    runs += 1
-                inside = now
+            column = labels[i, j]
+            runs = np.int64(nz > 0 and column[0] == value)
+            for k in range(1, nz):
+                runs += (column[k] == value) & (column[k - 1] != value)
             count[i * ny + j + 1] = runs
 
 
 @compiled
 def _list_runs(labels, value, start, stop, first, low, high):
     """The runs of the slab's columns: the first layer of each in ``low``, the
-    one after its last in ``high``, from ``first[column]`` on."""
+    one after its last in ``high``, from ``first[column]`` on (the columns
+    without a run, most of them, are not looked at again)."""
     nx, ny, nz = labels.shape
     for i in range(start, stop):
         for j in range(ny):
             r = first[i * ny + j]
+            if r == first[i * ny + j + 1]:
+                continue
             k = 0
             while k < nz:
                 if labels[i, j, k] != value:

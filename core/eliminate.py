@@ -52,8 +52,8 @@ _CANDIDATES = 16
 #: Faces tested at a time; rows of their candidate tables per block on a core.
 _FACES, _ROWS = 1 << 17, 4096
 #: The share of the elimination's progress the first pass takes: it tests
-#: every building/air face (1.6 M on the 1 km synthetic city at 1 m: 0.77-0.82
-#: of the passes' time; 0.72-0.78 at 0.5 m), the next ones only those the
+#: every building/air face (1.6 M on the 1 km synthetic city at 1 m: 0.76-0.82
+#: of the passes' time; 0.70-0.78 at 0.5 m), the next ones only those the
 #: removals exposed.
 FIRST_PASS_SHARE = 0.75
 
