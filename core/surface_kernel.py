@@ -228,22 +228,20 @@ def _write_row(back, front, outside, axis, back_in, front_in, i_f, j_f, nx1, ny1
     order of their padded voxels along z."""
     nz = len(back)
     for k in range(nz + 1 if axis == 2 else nz):
-        # The voxels behind and in front of the face, and the front one's height.
+        # The voxels behind and in front of the face (the front one at height k).
         if axis == 2:
-            below = back[k - 1] if k > 0 else outside
-            above = back[k] if k < nz else outside
-            k_f = k
+            behind = back[k - 1] if k > 0 else outside
+            ahead = back[k] if k < nz else outside
         else:
-            below = back[k] if back_in else outside
-            above = front[k] if front_in else outside
-            k_f = k
-        if below == above:
+            behind = back[k] if back_in else outside
+            ahead = front[k] if front_in else outside
+        if behind == ahead:
             continue
         # The face's lowest lattice node: (padded voxel - 1) + one step along the axis.
-        base = i_f + nx1 * (j_f + ny1 * k_f)
+        base = i_f + nx1 * (j_f + ny1 * k)
         for c in range(4):
             quads[row, c] = base + offsets[axis, c]
-        pairs[row, 0], pairs[row, 1] = below, above
+        pairs[row, 0], pairs[row, 1] = behind, ahead
         row += 1
 
 
