@@ -126,8 +126,7 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
             raise Cancelled()
         # The faces a pass has not tested yet: the others were supported (their cell is
         # still there), and a later pass's test supports whatever the first pass's did.
-        cells, axis, sign = boundary_faces(flat, shape, stride) if gone is None else exposed_faces(
-            flat, gone, shape, stride)
+        cells, axis, sign = boundary_faces(flat, shape) if gone is None else exposed_faces(flat, gone, shape)
         if len(cells) == 0:
             break
         share = FIRST_PASS_SHARE if gone is None else 0.5 * (1.0 - done)
@@ -149,16 +148,15 @@ def eliminate_unsupported(labels: np.ndarray, grid: VoxelGrid, points: np.ndarra
 _SIX = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]])
 
 
-def boundary_faces(flat: np.ndarray, shape: np.ndarray,
-                   stride: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def boundary_faces(flat: np.ndarray, shape: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Every face between a building cell and an air cell.
 
     Parameters
     ----------
     flat : ndarray of uint8
         The labels, raveled (C order).
-    shape, stride : ndarray of int
-        Grid shape and the strides of the flat index.
+    shape : ndarray of int
+        Grid shape.
 
     Returns
     -------
@@ -171,7 +169,7 @@ def boundary_faces(flat: np.ndarray, shape: np.ndarray,
     Examples
     --------
     >>> flat = np.array([AIR, BUILDING, BUILDING, 1], np.uint8)  # along z, ground at the top
-    >>> cells, axis, sign = boundary_faces(flat, np.array([1, 1, 4]), np.array([4, 4, 1]))
+    >>> cells, axis, sign = boundary_faces(flat, np.array([1, 1, 4]))
     >>> cells.tolist(), axis.tolist(), sign.tolist()
     ([[0, 0, 1]], [2], [-1])
     """
@@ -179,11 +177,10 @@ def boundary_faces(flat: np.ndarray, shape: np.ndarray,
     found = jit.run("support_kernel", "boundary_faces", flat, shape, BUILDING, AIR, size=len(flat))
     if found is not None:
         return found
-    return air_faces(flat, np.flatnonzero(flat == BUILDING), shape, stride)
+    return air_faces(flat, np.flatnonzero(flat == BUILDING), shape)
 
 
-def exposed_faces(flat: np.ndarray, gone: np.ndarray, shape: np.ndarray,
-                  stride: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def exposed_faces(flat: np.ndarray, gone: np.ndarray, shape: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The faces of the building cells next to the cells ``gone`` (flat
     indices, just turned to air) towards them: the faces their removal
     exposed. As :func:`boundary_faces` returns them.
@@ -191,7 +188,7 @@ def exposed_faces(flat: np.ndarray, gone: np.ndarray, shape: np.ndarray,
     Examples
     --------
     >>> flat = np.array([AIR, AIR, BUILDING, 1], np.uint8)  # the second cell just went
-    >>> cells, axis, sign = exposed_faces(flat, np.array([1]), np.array([1, 1, 4]), np.array([4, 4, 1]))
+    >>> cells, axis, sign = exposed_faces(flat, np.array([1]), np.array([1, 1, 4]))
     >>> cells.tolist(), axis.tolist(), sign.tolist()
     ([[0, 0, 2]], [2], [-1])
     """
@@ -199,11 +196,10 @@ def exposed_faces(flat: np.ndarray, gone: np.ndarray, shape: np.ndarray,
     found = jit.run("support_kernel", "exposed_faces", flat, gone, shape, BUILDING, size=len(gone))
     if found is not None:
         return found
-    return _faces_next_to(flat, gone, shape, stride, BUILDING, across=True)
+    return _faces_next_to(flat, gone, shape, BUILDING, across=True)
 
 
-def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
-              stride: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The building/air faces of the given building cells (flat indices), as
     :func:`boundary_faces` returns them: grouped by the six directions of
     ``_SIX``, each direction's in the cells' order.
@@ -211,19 +207,20 @@ def air_faces(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray,
     Examples
     --------
     >>> flat = np.array([AIR, BUILDING, BUILDING, 1], np.uint8)
-    >>> air_faces(flat, np.array([1, 2]), np.array([1, 1, 4]), np.array([4, 4, 1]))[0].tolist()
+    >>> air_faces(flat, np.array([1, 2]), np.array([1, 1, 4]))[0].tolist()
     [[0, 0, 1]]
     """
-    return _faces_next_to(flat, cells, shape, stride, AIR, across=False)
+    return _faces_next_to(flat, cells, shape, AIR, across=False)
 
 
-def _faces_next_to(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray, stride: np.ndarray, value: int,
+def _faces_next_to(flat: np.ndarray, cells: np.ndarray, shape: np.ndarray, value: int,
                    across: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The faces between ``cells`` and their neighbours labelled ``value``,
     direction by direction (``_SIX``), each in the cells' order: as the
     cell's faces (air beyond) or, ``across``, as the neighbour's (the air
     on the cell's side)."""
     ijk = np.column_stack(np.unravel_index(cells, tuple(shape)))
+    stride = (shape[1] * shape[2], shape[2], 1)
     out_cells, out_axis, out_sign = [], [], []
     for step in _SIX:
         # One coordinate changes: the neighbour's flat index is one stride away.

@@ -243,27 +243,6 @@ def _above(centre, axis, lo, hi, half, r_inner2, r_outer, x0, y0, cell, nx, ny, 
         out[f] = found
 
 
-@inlined
-def _neighbours_of_value(flat, cell, i, j, k, nx, ny, nz, value):
-    """Bit ``step`` set where the neighbour of ``cell`` (at ``i, j, k``)
-    towards direction ``step`` (+x, -x, +y, -y, +z, -z, as
-    ``core.eliminate._SIX``) is inside the grid and holds ``value``."""
-    bits = 0
-    if i + 1 < nx and flat[cell + ny * nz] == value:
-        bits |= 1
-    if i > 0 and flat[cell - ny * nz] == value:
-        bits |= 2
-    if j + 1 < ny and flat[cell + nz] == value:
-        bits |= 4
-    if j > 0 and flat[cell - nz] == value:
-        bits |= 8
-    if k + 1 < nz and flat[cell + 1] == value:
-        bits |= 16
-    if k > 0 and flat[cell - 1] == value:
-        bits |= 32
-    return bits
-
-
 @compiled
 def _slab_faces(flat, nx, ny, nz, building, air, i0, i1, at, ijk, axis, sign):
     """The faces of :func:`boundary_faces` in the slabs ``i0:i1``: counted
@@ -333,15 +312,29 @@ def _column_and_beyond(flat, i, j, nx, ny, nz, step):
 
 @compiled
 def _facing(flat, cells, shape, value, start, stop, facing):
-    """For ``cells[start:stop]``, ``facing`` as :func:`_neighbours_of_value`
-    (the neighbours that hold ``value``); returns the count per direction."""
+    """For ``cells[start:stop]``, bit ``step`` of ``facing`` set where the
+    neighbour towards direction ``step`` (+x, -x, +y, -y, +z, -z, as
+    ``core.eliminate._SIX``) is inside the grid and holds ``value``; returns
+    the count per direction."""
     nx, ny, nz = shape[0], shape[1], shape[2]
     count = np.zeros(6, np.int64)
     for c in range(start, stop):
         cell = cells[c]
         i, rest = cell // (ny * nz), cell % (ny * nz)
         j, k = rest // nz, rest % nz
-        bits = _neighbours_of_value(flat, cell, i, j, k, nx, ny, nz, value)
+        bits = 0
+        if i + 1 < nx and flat[cell + ny * nz] == value:
+            bits |= 1
+        if i > 0 and flat[cell - ny * nz] == value:
+            bits |= 2
+        if j + 1 < ny and flat[cell + nz] == value:
+            bits |= 4
+        if j > 0 and flat[cell - nz] == value:
+            bits |= 8
+        if k + 1 < nz and flat[cell + 1] == value:
+            bits |= 16
+        if k > 0 and flat[cell - 1] == value:
+            bits |= 32
         facing[c] = bits
         for step in range(6):
             count[step] += (bits >> step) & 1

@@ -194,7 +194,7 @@ def test_the_elimination_reports_its_share_done_block_by_block(monkeypatch):
 
     g, labels, points = partly_supported_block()
     flat, shape = labels.reshape(-1), np.array(g.shape)
-    faces = len(eliminate.boundary_faces(flat, shape, strides(shape))[0])
+    faces = len(eliminate.boundary_faces(flat, shape)[0])
     expected = labels.copy()
     removed = eliminate_unsupported(expected, g, points, extrude_roofs=True, search=search_tree(points))
     monkeypatch.setattr(eliminate, "_FACES", 100)
@@ -271,10 +271,6 @@ def random_labels(seed: int) -> np.ndarray:
     return rng.choice(np.array([GROUND, BUILDING, AIR], np.uint8), shape, p=[0.2, 0.5, 0.3])
 
 
-def strides(shape) -> np.ndarray:
-    return np.array([shape[1] * shape[2], shape[2], 1], dtype=np.int64)
-
-
 def same_faces(got, expected) -> None:
     for a, b in zip(got, expected):
         assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b)
@@ -288,8 +284,8 @@ def test_boundary_faces_are_numpys(with_numpy, kernel, seed):
 
     labels = random_labels(seed)
     flat, shape = labels.reshape(-1), np.array(labels.shape)
-    expected = air_faces(flat, np.flatnonzero(flat == BUILDING), shape, strides(shape))
-    same_faces(with_numpy(boundary_faces, flat, shape, strides(shape)), expected)
+    expected = air_faces(flat, np.flatnonzero(flat == BUILDING), shape)
+    same_faces(with_numpy(boundary_faces, flat, shape), expected)
     same_faces(kernel.boundary_faces(flat, shape, BUILDING, AIR), expected)
     assert len(expected[0]) > 0 or not (flat == BUILDING).any()
 
@@ -303,17 +299,17 @@ def test_exposed_faces_are_numpys_and_those_the_removals_made(with_numpy, kernel
 
     labels = random_labels(seed)
     flat, shape = labels.reshape(-1), np.array(labels.shape)
-    before = with_numpy(boundary_faces, flat, shape, strides(shape))
+    before = with_numpy(boundary_faces, flat, shape)
     building = np.flatnonzero(flat == BUILDING)
     gone = np.sort(np.random.default_rng(seed).choice(building, len(building) // 5, replace=False))
     flat[gone] = AIR
-    expected = with_numpy(exposed_faces, flat, gone, shape, strides(shape))
+    expected = with_numpy(exposed_faces, flat, gone, shape)
     same_faces(kernel.exposed_faces(flat, gone, shape, BUILDING), expected)
 
     def as_set(faces):
         cells, axis, sign = faces
         return set(map(tuple, np.column_stack([cells, axis, sign]).tolist()))
 
-    after = with_numpy(boundary_faces, flat, shape, strides(shape))
+    after = with_numpy(boundary_faces, flat, shape)
     new = as_set(after) - as_set(before)
     assert len(expected[1]) == len(new) and as_set(expected) == new and len(gone) > 0
