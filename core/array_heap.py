@@ -192,6 +192,16 @@ def region_in_use() -> tuple[int, int]:
     return int(_state[_kernel.TOP]), sum(free_sizes())
 
 
+def free_held() -> tuple[int, int]:
+    """Bytes the region holds free (its free ranges, and the pages faulted
+    in above its top), and bytes its arrays take (below its top, less the
+    free ranges): :func:`core.heap.held_free_bytes`."""
+    if _state is None:
+        return 0, 0
+    top, free = region_in_use()
+    return free + max(0, int(_state[_kernel.HIGH]) - top), top - free
+
+
 def ahead_of_top(nbytes: int, least: int) -> list[tuple[int, int]]:
     """The range above the region's high-water mark that ``nbytes`` more of
     arrays would reach beyond the free memory the region holds, if

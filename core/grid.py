@@ -18,13 +18,27 @@ import numpy as np
 
 from . import jit
 from .errors import UrbanvoxError
+from .heap import held_free_bytes
 from .parallel import balanced_blocks, map_blocks, row_blocks
 
-#: Bytes per voxel the voxel stages hold at once: labels (uint8), boolean
-#: masks, the int32 output of scipy.ndimage.label and the int32 regions the
-#: faces are read from. An estimate from those arrays, used by the memory
-#: guard; benchmarks/run.py prints the measured peak of every stage.
+#: Bytes per voxel the voxel stages hold at once with numpy's code: labels
+#: (uint8), boolean masks, the int32 output of scipy.ndimage.label and the
+#: int32 regions the faces are read from, and the faces the surfaces'
+#: extraction makes before their own check (:func:`check_face_memory`).
+#: Measured (live arrays, the 1 km synthetic city): 11.1 B at 1 m and 0.5 m
+#: in the voxel stages, 14.0 B at 1 m with the extraction's faces.
 BYTES_PER_VOXEL = 16
+#: The same with the compiled kernels (:mod:`core.jit`), which label in
+#: place and scan the grid without masks of it: measured 6.7 B at 1 m and
+#: 5.3 B at 0.5 m in the voxel stages, 10.4 B and 6.7 B with the
+#: extraction's faces (at coarser voxels the faces weigh more per voxel;
+#: the points' term covers them at 2 m).
+BYTES_PER_VOXEL_COMPILED = 10
+#: Bytes per point (ground and building) the run adds to the points given:
+#: their copy in the grid's local coordinates, the ground level's tables,
+#: the classes' per-point arrays. Measured on the same city: 50 B at 2 m,
+#: where the ground level's tables are the run's peak before the surfaces.
+BYTES_PER_POINT = 48
 #: Bytes per column of the domain-wide 2-D fields of a tiled run (the ground
 #: level: heights, top cells, flags and the gap fill's temporaries).
 BYTES_PER_COLUMN = 64
@@ -327,8 +341,25 @@ def bounds(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return found[:, :3].min(axis=0), found[:, 3:].max(axis=0)
 
 
+def voxel_bytes(n_voxels: int) -> int:
+    """Bytes per voxel of a grid of ``n_voxels`` for the memory guard: the
+    compiled kernels' figure where they will run on it (:func:`core.jit.expected`),
+    else numpy's.
+
+    Examples
+    --------
+    >>> import os
+    >>> before = os.environ.get("URBANVOX_JIT")
+    >>> os.environ["URBANVOX_JIT"] = "0"  # the kernels switched off
+    >>> voxel_bytes(10**9)
+    16
+    >>> _ = os.environ.pop("URBANVOX_JIT") if before is None else os.environ.update(URBANVOX_JIT=before)
+    """
+    return BYTES_PER_VOXEL_COMPILED if jit.expected(n_voxels) else BYTES_PER_VOXEL
+
+
 def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int | None = None,
-                 bytes_per_voxel: int = BYTES_PER_VOXEL, tile_hint: bool = False) -> int:
+                 bytes_per_voxel: int = BYTES_PER_VOXEL, tile_hint: bool = False, points: int = 0) -> int:
     """Estimate the bytes a grid needs; refuse it before allocating if too large.
 
     Parameters
@@ -339,8 +370,12 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
         For the message: the voxel size that would fit is suggested.
     available : int, optional
         Bytes the run may use; default: the machine's available memory.
+    bytes_per_voxel : int
+        :data:`BYTES_PER_VOXEL`, or :func:`voxel_bytes` for the path the run takes.
     tile_hint : bool
         Also suggest the tile size (:mod:`core.tiles`) whose grids fit.
+    points : int
+        The points the run voxelises: :data:`BYTES_PER_POINT` each, at any voxel size.
 
     Returns
     -------
@@ -357,37 +392,53 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
     ...     print(error)
     The voxel grid (10000 x 10000 x 200 = 20000000000 voxels at 0.5) needs about 298.0 GiB
     but only 0.93 GiB is available. Use a voxel size of at least 3.6, or a smaller area.
+    >>> try:
+    ...     check_memory((100, 100, 50), 1.0, available=10**9, points=10**8)
+    ... except UrbanvoxError as error:
+    ...     print(error)
+    The voxel grid (100 x 100 x 50 = 500000 voxels at 1) with its 100000000 points needs about 4.5 GiB
+    but only 0.93 GiB is available. The points alone need 4.5 GiB: use a smaller area.
     """
     n = math.prod(int(side) for side in shape)  # Python's integers: a tiny voxel's count overflows int64
-    needed = n * bytes_per_voxel
+    for_points = int(points) * BYTES_PER_POINT
+    needed = n * bytes_per_voxel + for_points
     if available is None:
         available = available_memory()
     if needed > available:
-        # Voxel count scales with 1/size^3 (2-D extent) or at least 1/size^2:
-        # the cube-root scaling is suggested.
-        tile = _fitting_tile(shape[2], voxel_size, available, bytes_per_voxel)
+        what = f"The voxel grid ({shape[0]} x {shape[1]} x {shape[2]} = {n} voxels at {voxel_size:g})"
+        if points:
+            what += f" with its {int(points)} points"
         # Tiles help only where they are more than a halo wide and the domain's
         # 2-D fields (core.tiles) fit.
+        per_column = bytes_per_voxel * shape[2] + for_points / max(shape[0] * shape[1], 1)
+        tile = _fitting_tile(per_column, voxel_size, available)
         tiles_fit = tile >= _SMALLEST_TILE_VOXELS * voxel_size \
             and shape[0] * shape[1] * BYTES_PER_COLUMN <= available
-        raise memory_error(f"The voxel grid ({shape[0]} x {shape[1]} x {shape[2]} = {n} voxels at {voxel_size:g})",
-                           needed, available, voxel_size, 3,
-                           f", or tiles of at most {tile:g} (TILE_SIZE)." if tile_hint and tiles_fit else ".")
+        end = f", or tiles of at most {tile:g} (TILE_SIZE)." if tile_hint and tiles_fit else "."
+        if for_points >= available:
+            raise UrbanvoxError(f"{what} needs about {_gib(needed)} GiB but only {_gib(available)} GiB is "
+                                f"available. The points alone need {_gib(for_points)} GiB: use a smaller area"
+                                f"{end}")
+        # Voxel count scales with 1/size^3 (2-D extent) or at least 1/size^2:
+        # the cube-root scaling is suggested, for what the points leave.
+        raise memory_error(what, needed, available, voxel_size, 3, end, fixed=for_points)
     return needed
 
 
 def memory_error(what: str, needed: int, available: int, voxel_size: float, dimensions: int,
-                 end: str = ".") -> UrbanvoxError:
+                 end: str = ".", fixed: int = 0) -> UrbanvoxError:
     """The error for ``what`` needing ``needed`` bytes of ``available``: the
-    estimate, and the voxel size that fits where the bytes scale with
-    1/size^``dimensions`` (rounded up, 5 % to spare), then ``end``.
+    estimate, and the voxel size that fits where the bytes beyond ``fixed``
+    (below ``available``) scale with 1/size^``dimensions`` (rounded up, 5 %
+    to spare), then ``end``.
 
     Examples
     --------
     >>> print(memory_error("The grid", 8 * 2**30, 2**30, 0.5, 3))
     The grid needs about 8.0 GiB but only 1.0 GiB is available. Use a voxel size of at least 1.1, or a smaller area.
     """
-    suggestion = rounded_up(voxel_size * (needed / available) ** (1.0 / dimensions) * 1.05)
+    scale = (needed - fixed) / (available - fixed)
+    suggestion = rounded_up(voxel_size * scale ** (1.0 / dimensions) * 1.05)
     return UrbanvoxError(f"{what} needs about {_gib(needed)} GiB but only {_gib(available)} GiB is available. "
                          f"Use a voxel size of at least {suggestion:g}, or a smaller area{end}")
 
@@ -492,7 +543,15 @@ def _poisson_mean(points_per_occupied: float) -> float:
 
 
 def available_memory() -> int:
-    """Bytes of memory available to this process (Linux ``MemAvailable``)."""
+    """Bytes of memory available to this process: the system's
+    (Linux ``MemAvailable``) and what the process's heaps hold free for its
+    next arrays (:func:`core.heap.held_free_bytes`: a run's freed memory,
+    kept for the next step and the next run, which ``MemAvailable`` leaves out)."""
+    return _system_available() + held_free_bytes()
+
+
+def _system_available() -> int:
+    """The system's available memory in bytes (``MemAvailable``); 8 GiB where unknown."""
     try:
         with open("/proc/meminfo", encoding="ascii") as meminfo:
             for line in meminfo:
@@ -547,7 +606,8 @@ def check_face_memory(n_faces: int, n_columns: int, voxel_size: float, available
     return needed
 
 
-def _fitting_tile(nz: int, voxel_size: float, available: int, bytes_per_voxel: int) -> float:
-    """Side of the square tile whose grid, halo included, fits in ``available``."""
-    side = np.sqrt(available / (bytes_per_voxel * nz))  # voxels, halo included
+def _fitting_tile(per_column: float, voxel_size: float, available: int) -> float:
+    """Side of the square tile whose grid and points, halo included, fit in
+    ``available``, at ``per_column`` bytes a column of voxels."""
+    side = np.sqrt(available / per_column)  # voxels, halo included
     return float(max(1.0, np.floor(0.7 * side)) * voxel_size)

@@ -335,6 +335,53 @@ def give_back() -> None:
         _LIBC.malloc_trim(0)
 
 
+def held_free_bytes() -> int:
+    """Bytes of memory this process holds free for its next arrays, in its
+    pages: what the memory guard may count beside the system's
+    ``MemAvailable``, which leaves them out.
+
+    During a run and for :func:`keep_seconds` after, glibc's heap and
+    :mod:`core.array_heap` keep what the run frees (and what
+    :func:`fault_in_ahead` faulted in): the next step's or the next run's
+    arrays take it without the system giving any. Without counting it, a
+    guard asked within that time (the surfaces' check after the voxel
+    stages freed gigabytes, a batch's next run) saw that memory as taken.
+
+    Two figures each hold at least that memory, and the smaller is taken:
+    the heaps' own count of their free bytes (which also counts pages handed
+    back earlier, and so counted in ``MemAvailable`` already), and the
+    process's anonymous resident memory less what the heaps' live blocks
+    take (which also counts Python's own small-object arenas). 0 where glibc
+    cannot say (before 2.33, or another C library).
+
+    Examples
+    --------
+    >>> held_free_bytes() >= 0
+    True
+    """
+    if _MALLINFO2 is None:
+        return 0
+    from . import array_heap
+
+    info = _MALLINFO2()
+    region_free, region_live = array_heap.free_held()
+    counted = info.fordblks + region_free
+    resident = _anonymous_resident() - (info.uordblks + info.hblkhd + region_live)
+    return int(max(0, min(counted, resident)))
+
+
+def _anonymous_resident() -> int:
+    """This process's anonymous resident memory in bytes (``RssAnon``), 0 where unknown."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("RssAnon:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return 0
+
+
 def fault_in_ahead(nbytes: int) -> threading.Thread | None:
     """Fault in the pages of the ``nbytes`` a run is about to need that its
     heap does not hold free yet, on a thread of lower priority, while the

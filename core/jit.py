@@ -50,6 +50,7 @@ file, stores the module's import name, and the other name fails to load it.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import os
 import threading
 import time
@@ -133,6 +134,25 @@ def kernels(name: str, size: int | None = None) -> ModuleType | None:
             finally:
                 numba.config.CACHE_DIR = saved
         return _loaded[name]
+
+
+def expected(size: int) -> bool:
+    """Whether work of ``size`` elements will run compiled kernels
+    (:func:`kernels`), without loading them: for an estimate made before
+    the work (the memory guard's). A numba that is installed but fails to
+    load is not foreseen.
+
+    Examples
+    --------
+    >>> before = os.environ.get("URBANVOX_JIT")
+    >>> os.environ["URBANVOX_JIT"] = "0"
+    >>> expected(10**9)
+    False
+    >>> _ = os.environ.pop("URBANVOX_JIT") if before is None else os.environ.update(URBANVOX_JIT=before)
+    """
+    if not enabled() or (size < WORTHWHILE and not _any_loaded() and not _always()):
+        return False
+    return importlib.util.find_spec("numba") is not None
 
 
 def ready(name: str) -> bool:

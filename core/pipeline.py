@@ -44,7 +44,8 @@ from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
-from .grid import GridWindow, available_memory, check_face_memory, check_memory, sparse_points_warning
+from .grid import (GridWindow, available_memory, check_face_memory, check_memory, sparse_points_warning,
+                   voxel_bytes)
 from .ground import GroundLevel, NearGround, column_ground_level
 from .heap import THREAD_HEAP_FRESH, fault_in_ahead, reusing_freed_memory, use_array_heap_here
 from .inputs import ReconstructionParams, checked_points
@@ -335,7 +336,8 @@ def reconstruct_points(ground: np.ndarray, building: np.ndarray, crs, params: Re
                                      warnings, progress, is_cancelled)
 
     grid = window.grid(h)
-    needed = check_memory(grid.shape, params.voxel_size, params.max_memory, tile_hint=True)
+    needed = check_memory(grid.shape, params.voxel_size, params.max_memory, voxel_bytes(grid.n_voxels), tile_hint=True,
+                          points=len(ground) + len(building))
     if needed >= THREAD_HEAP_FRESH:
         # In a host's thread (QGIS), arrays this large from the array heap
         # (a large point cloud's reader asked already; a mesh's run asks here).

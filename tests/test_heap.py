@@ -254,6 +254,42 @@ def test_a_runs_memory_is_faulted_in_ahead_and_handed_back(process):
     assert not started and ahead < 20 and taken > 35_000 and stopped and released < 20
 
 
+_HELD_PROBE = """
+import sys
+import numpy as np
+from core import array_heap, grid, heap
+
+assert heap.host_threads() == (sys.argv[1] == "host") and (sys.argv[1] != "host" or array_heap.available())
+grid._system_available = lambda: 0  # what the guard counts beyond the system's figure
+start = heap.held_free_bytes()
+with heap.reusing_freed_memory():
+    block = np.ones(400 * 2**20 // 8); del block  # 400 MB written, then freed: the heap keeps it
+    held, counted = heap.held_free_bytes(), grid.available_memory()
+    again = np.ones(300 * 2**20 // 8)  # takes 300 MB of it
+    left = heap.held_free_bytes()
+    del again
+heap.release()
+print(*(round(size / 2**20) for size in (start, held, counted, left, heap.held_free_bytes())))
+"""
+
+
+@pytest.mark.parametrize("process", _PROCESSES)
+def test_the_memory_guard_counts_what_the_heap_holds_free(process):
+    # The system's MemAvailable leaves out the memory a run freed and its
+    # heap keeps: the guard counts it beside, as long as the heap holds it.
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "URBANVOX_KEEP_MEMORY_SECONDS": "60"}
+    env.pop("MALLOC_ARENA_MAX", None)
+    if process == "one heap":
+        env["MALLOC_ARENA_MAX"] = "1"
+    out = subprocess.run([sys.executable, "-c", _HELD_PROBE, process], cwd=ROOT, capture_output=True, text=True,
+                         env=env, check=True).stdout
+    start, held, counted, left, released = (int(value) for value in out.split())
+    assert start < 50
+    assert 390 <= held - start <= 420 and abs(counted - held) < 10
+    assert 90 <= left - start <= 120  # the 100 MB the next array left
+    assert released < 20  # handed back: in the system's figure again, not counted twice
+
+
 _LAZY_PROBE = """
 import sys
 from core import array_heap, heap

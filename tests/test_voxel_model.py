@@ -1,4 +1,6 @@
 """Voxel model steps (§2-3.4) on small grids with known answers."""
+import re
+
 import numpy as np
 import pytest
 from scipy import ndimage
@@ -137,6 +139,25 @@ def test_ground_ceiling_bounds_every_column_from_above():
 def test_memory_guard_refuses_before_allocating():
     with pytest.raises(UrbanvoxError, match="voxel size of at least"):
         check_memory((20000, 20000, 300), 0.25, available=8 * 2**30)
+
+
+def test_memory_guard_counts_the_points_and_suggests_what_fits():
+    # 10 M points take 480 MB at any voxel size: the voxel size and the tile
+    # suggested fit in what they leave, points and halo included.
+    shape, available, points = (2000, 2000, 100), 2 * 2**30, 10**7
+    with pytest.raises(UrbanvoxError, match=r"with its 10000000 points needs about 4\.2 GiB") as error:
+        check_memory(shape, 0.5, available=available, bytes_per_voxel=10, tile_hint=True, points=points)
+    size = float(re.search(r"voxel size of at least ([\d.]+)", str(error.value)).group(1))
+    coarser = tuple(int(np.ceil(n * 0.5 / size)) for n in shape)
+    check_memory(coarser, size, available=available, bytes_per_voxel=10, points=points)
+    tile = float(re.search(r"tiles of at most ([\d.]+)", str(error.value)).group(1))
+    side = int(tile / 0.5) + 24
+    check_memory((side, side, 100), 0.5, available=available, bytes_per_voxel=10,
+                 points=points * side * side // (shape[0] * shape[1]))
+    # Points beyond the memory whatever the voxels: no voxel size is suggested.
+    with pytest.raises(UrbanvoxError, match="The points alone need 4.5 GiB: use a smaller area") as error:
+        check_memory((10, 10, 10), 1.0, available=2**30, points=10**8)
+    assert "voxel size of at least" not in str(error.value)
 
 
 def test_height_field_repair_removes_diagonal_patterns():
