@@ -50,7 +50,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tile-size", type=float, default=0.0,
                    help="tiles of this side in metres, reconstructed separately and merged (0: one grid)")
     p.add_argument("--workers", type=int, default=0,
-                   help="worker processes for the tiles on a local Dask cluster (0: in this process)")
+                   help="worker processes for the tiles on a local Dask cluster (0 or 1: in this process; "
+                        "without --tile-size, tiles of 250 m)")
     p.add_argument("--scheduler", help="address of a Dask scheduler for the tiles (tcp://host:8786)")
     p.add_argument("--mesh", type=Path, help="write the conforming mesh (.msh .vtu .obj .stl .ply)")
     p.add_argument("--binary-msh", action="store_true",
@@ -58,6 +59,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", type=Path, help="write the blocks and the run's figures as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress messages")
     return p
+
+
+def tile_options(args: argparse.Namespace) -> TileOptions | None:
+    """``--tile-size``, ``--workers`` and ``--scheduler`` as tiles, or None
+    for one grid. Workers or a scheduler without a tile size mean tiles of
+    the core's default size, as in the Processing algorithms: several
+    processes need several tiles. A bad value is refused by :class:`TileOptions`.
+
+    Examples
+    --------
+    >>> tile_options(build_parser().parse_args(["city.laz", "--workers", "2"]))
+    TileOptions(tile_size=250.0, halo=10.0, workers=2, scheduler=None)
+    >>> tile_options(build_parser().parse_args(["city.laz", "--workers", "1"])) is None
+    True
+    """
+    if args.tile_size == 0 and args.workers in (0, 1) and not args.scheduler:
+        return None
+    return TileOptions(tile_size=args.tile_size or TileOptions.tile_size, workers=args.workers,
+                       scheduler=args.scheduler)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -75,9 +95,7 @@ def main(argv: list[str] | None = None) -> int:
         params = ReconstructionParams(voxel_size=args.voxel_size, smoothing_iterations=args.smoothing,
                                       project=not args.no_projection,
                                       extent=tuple(args.extent) if args.extent else None)
-        tiles = None
-        if args.tile_size > 0 or args.scheduler:
-            tiles = TileOptions(tile_size=args.tile_size or 250.0, workers=args.workers, scheduler=args.scheduler)
+        tiles = tile_options(args)
         # The outputs' paths before the run, not after its minutes of work.
         if args.mesh:
             check_output_path(args.mesh)

@@ -86,6 +86,11 @@ class TileOptions:
     workers: int = 0
     scheduler: str | None = None
 
+    def __post_init__(self):
+        if int(self.workers) != self.workers or self.workers < 0:
+            raise UrbanvoxError(f"The number of workers must be a whole number, 0 or 1 to run the tiles in this "
+                                f"process, more for a local Dask cluster (got {self.workers}).")
+
     def columns(self, voxel_size_m: float) -> tuple[int, int]:
         """Tile side and halo width in columns."""
         if not np.isfinite(self.tile_size) or self.tile_size <= 0:

@@ -27,6 +27,23 @@ def test_point_cloud_in_tiles_writes_mesh_and_report(district, tmp_path):
     assert f"{doc['summary']['block_count']} blocks" in done.stdout
 
 
+def test_workers_or_a_scheduler_alone_mean_tiles_of_the_default_size():
+    # As the Processing algorithms take WORKERS and SCHEDULER: several processes need several tiles.
+    from core.cli import build_parser, tile_options
+    from core.errors import UrbanvoxError
+    from core.tiles import TileOptions
+
+    def tiles(*flags):
+        return tile_options(build_parser().parse_args(["city.laz", *flags]))
+
+    assert tiles() is None and tiles("--workers", "1") is None
+    assert tiles("--workers", "3") == TileOptions(250.0, workers=3)
+    assert tiles("--scheduler", "tcp://host:8786") == TileOptions(250.0, scheduler="tcp://host:8786")
+    assert tiles("--tile-size", "100", "--workers", "2") == TileOptions(100.0, workers=2)
+    with pytest.raises(UrbanvoxError, match="number of workers"):
+        tiles("--workers", "-1")
+
+
 def test_mesh_without_crs_is_refused_with_the_flag_to_use(district):
     done = run(district.stl, "--voxel-size", 2)
     assert done.returncode == 2
@@ -65,6 +82,9 @@ def test_missing_file_is_an_error_not_a_traceback(tmp_path):
     assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
 
 
+_NUMBERS = ("--smoothing", "--workers", "--tile-size")
+
+
 @pytest.mark.parametrize("flag, name, says", [
     ("--mesh", "missing/city.msh", "does not exist"),
     ("--mesh", "city.txt", "Unknown mesh format '.txt'"),
@@ -72,11 +92,13 @@ def test_missing_file_is_an_error_not_a_traceback(tmp_path):
     ("--report", "missing/report.json", "does not exist"),
     ("--report", "folder", "is a folder"),
     ("--smoothing", "-1", "smoothing passes"),
+    ("--workers", "-1", "number of workers must be a whole number, 0 or 1"),
+    ("--tile-size", "-5", "tile size must be a positive number"),
 ])
 def test_outputs_that_cannot_be_written_stop_the_run_before_it_starts(district, tmp_path, flag, name, says):
     """A bad output path is an error at once (not after the run), without a traceback, and writes nothing."""
     (tmp_path / "folder").mkdir()
-    done = run(district.laz, "--voxel-size", 2, flag, name if flag == "--smoothing" else tmp_path / name, "--quiet")
+    done = run(district.laz, "--voxel-size", 2, flag, name if flag in _NUMBERS else tmp_path / name, "--quiet")
     assert done.returncode == 2 and says in done.stderr and "Traceback" not in done.stderr
     assert "blocks," not in done.stdout  # no run
     assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"] and not any((tmp_path / "folder").iterdir())
