@@ -13,7 +13,7 @@ neighbouring regions share their nodes and triangles in every format:
              face property (block id, -1 ground, -2 air)
 ``.vtu``     ParaView: every interface face once, with ``region_a`` /
              ``region_b`` (the two regions, normal from a into b) and
-             ``block_id`` cell data (meshio)
+             ``block_id`` cell data (:mod:`core.vtu`)
 ``.msh``     gmsh 4.1, text or binary: a physical surface per interface
              (``block_3|air``, ``ground|air``, ...) and a physical volume
              per region (``block_3``, ``ground``, ``air``); entities are the
@@ -44,6 +44,7 @@ from .parallel import map_ahead
 from .progress import CancelCheck, cancel_checked, check_cancel
 from .row_text import encoded_block, row_texts, write_rows
 from .surface import AIR_REGION, GROUND_REGION, OUTSIDE_REGION, REGION_NAMES, SurfaceModel, rank_in, unique_pairs
+from .vtu import write_vtu
 
 MESH_FORMATS = (".obj", ".stl", ".ply", ".vtu", ".msh")
 #: Rows written at a time.
@@ -100,7 +101,7 @@ def write_mesh(path: str | Path, model: SurfaceModel, offset: np.ndarray, binary
         Write a ``.msh`` in gmsh's binary encoding: the same content, faster
         to write on a city (the 1 km city's: 1.6-2.1 s, 2.3-3.6 s as text;
         the entity search is the same), and exact coordinates. The other
-        formats have one encoding each (PLY binary, VTU as meshio writes it,
+        formats have one encoding each (PLY binary, VTU zlib-compressed binary,
         OBJ and STL text: a binary STL cannot name its solids) and ignore it.
     triangles : SurfaceModel, optional
         ``model.triangulated()``, when the caller has it.
@@ -220,18 +221,12 @@ def _write_ply(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled:
 
 
 def _write_vtu(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled: CancelCheck | None = None) -> None:
-    """meshio writes the file in one call: a cancel is checked before it only."""
-    try:
-        import meshio
-    except ImportError as error:  # pragma: no cover - dependency message
-        raise UrbanvoxError("Writing .vtu needs the meshio package: "
-                            "python3 -m pip install meshio") from error
+    """Every interface triangle once, its two regions and block as cell data (:mod:`core.vtu`)."""
     a, b = model.regions[:, 0], model.regions[:, 1]
     block = np.where(a > 0, a, np.where(b > 0, b, -1))
-    mesh = meshio.Mesh(world, [("triangle", model.quads.astype(np.int64))],
-                       cell_data={"region_a": [a.astype(np.int32)], "region_b": [b.astype(np.int32)],
-                                  "block_id": [block.astype(np.int32)]})
-    meshio.write(str(path), mesh, file_format="vtu")
+    cell_data = {"region_a": a.astype(np.int32), "region_b": b.astype(np.int32), "block_id": block.astype(np.int32)}
+    with _opened(path, "wb", is_cancelled) as out:
+        write_vtu(out, world, model.quads, cell_data, is_cancelled)
 
 
 @dataclass

@@ -71,6 +71,11 @@ def test_vtu_and_ply_carry_the_regions(result, tmp_path):
     assert len(a) == 2 * len(result.mesh.quads)     # every interface face once, as two triangles
     assert set(np.unique(vtu.cell_data["block_id"][0])) == set(result.blocks.block_id) | {-1}
     assert (a != b).all()
+    # Exactly the triangles, their nodes and regions (core.vtu: 32-bit node numbers, zlib blocks).
+    triangles = result.mesh_triangles
+    assert np.array_equal(vtu.points, result.grid.to_world(triangles.nodes))
+    assert vtu.cells[0].type == "triangle" and np.array_equal(vtu.cells[0].data, triangles.quads)
+    assert np.array_equal(np.column_stack([a, b]), triangles.regions)
     trimesh = pytest.importorskip("trimesh")
     ply = trimesh.load(result.write_mesh(tmp_path / "city.ply"), process=False)
     region = np.asarray(ply.metadata["_ply_raw"]["face"]["data"]["region"]).ravel()
@@ -217,6 +222,25 @@ def test_a_cancel_while_the_mesh_is_written_stops_it_and_leaves_no_file(result, 
     with pytest.raises(Cancelled):
         result.write_mesh(tmp_path / name, binary=binary, is_cancelled=lambda: len(checks.append(1) or checks) >= 5)
     assert len(checks) == 5 and sorted(p.name for p in tmp_path.iterdir()) == ["whole-" + name]
+
+
+def test_a_cancel_while_the_vtu_is_compressed_stops_it_and_leaves_no_file(result, tmp_path, monkeypatch):
+    """The .vtu's blocks are compressed on the threads, a cancel checked
+    before each: said at the fifth check, the others stop at theirs, and
+    neither the file nor its temporary is left."""
+    from core import vtu
+    from core.errors import Cancelled
+
+    monkeypatch.setattr(vtu, "BLOCK_BYTES", 4096)
+    checks = []
+    whole = result.write_mesh(tmp_path / "whole.vtu", is_cancelled=lambda: checks.append(1) and False)
+    every = len(checks)
+    assert every > 200 and whole.read_bytes() == result.write_mesh(tmp_path / "city.vtu").read_bytes()
+    (tmp_path / "city.vtu").unlink()
+    checks.clear()
+    with pytest.raises(Cancelled):
+        result.write_mesh(tmp_path / "city.vtu", is_cancelled=lambda: len(checks.append(1) or checks) >= 5)
+    assert len(checks) < every // 2 and sorted(p.name for p in tmp_path.iterdir()) == ["whole.vtu"]
 
 
 def test_a_cancel_before_the_preview_is_drawn_leaves_no_picture(result, tmp_path):
