@@ -1,5 +1,7 @@
 """Mesh files: every format reads back (with other libraries) as closed,
 conforming surfaces, and gmsh builds a valid tetrahedral mesh from the .msh."""
+import re
+
 import numpy as np
 import pytest
 
@@ -62,6 +64,18 @@ def test_stl_solids_are_watertight_for_trimesh(result, tmp_path):
     for name, mesh in scene.geometry.items():
         assert mesh.is_watertight and mesh.is_winding_consistent, name
         assert mesh.volume > 0, name  # outward normals
+    # Every facet of every region in turn: its corners to 0.1 mm, its unit normal to 1e-6.
+    from core.export import _regions
+
+    triangles = result.mesh_triangles
+    faces, _ = triangles.closed_surfaces(_regions(triangles))
+    corners = result.grid.to_world(triangles.nodes)[faces]
+    text = path.read_text()
+    written = np.array(re.findall(r"vertex (\S+) (\S+) (\S+)", text), dtype=float).reshape(-1, 3, 3)
+    assert written.shape == corners.shape and np.abs(written - corners).max() <= 0.5e-4 + 1e-6
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    assert np.abs(np.array(re.findall(r"facet normal (\S+) (\S+) (\S+)", text), dtype=float) - normal).max() <= 1e-6
 
 
 def test_vtu_and_ply_carry_the_regions(result, tmp_path):
