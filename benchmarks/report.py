@@ -4,16 +4,19 @@ from __future__ import annotations
 
 #: The stages, in the order of the tables.
 STAGES = ["read", "sample", "grid", "ground", "classify", "blocks", "eliminate", "surface", "smooth",
-          "project", "measure", "buildings", "layers", "export", "export_msh", "export_msh_binary", "preview"]
+          "project", "measure", "buildings", "layers", "export", "export_msh", "export_msh_binary", "export_vtu",
+          "preview"]
 #: The issue's names for the pipeline's laps.
 STAGE_NAMES = {"ground": "ground+voxelise", "eliminate": "elimination", "surface": "surfaces",
                "smooth": "smoothing", "project": "projection", "export_msh": "gmsh .msh",
-               "layers": "layers", "export_msh_binary": "binary .msh", "preview": "preview PNG"}
+               "layers": "layers", "export_msh_binary": "binary .msh", "export_vtu": ".vtu",
+               "preview": "preview PNG"}
 #: What a stage's rate counts.
 RATE_UNIT = {"read": "read", "sample": "points", "grid": "points", "ground": "points",
              "classify": "voxels", "blocks": "voxels", "eliminate": "voxels", "surface": "voxels",
              "smooth": "faces", "project": "faces", "measure": "faces", "buildings": "read", "export": "faces",
-             "layers": "faces", "export_msh": "faces", "export_msh_binary": "faces", "preview": "faces"}
+             "layers": "faces", "export_msh": "faces", "export_msh_binary": "faces", "export_vtu": "faces",
+             "preview": "faces"}
 #: The summary's columns: every stage but the mesh's sampling, the grid, the measures and a
 #: city model's buildings per block.
 SUMMARY_STAGES = [stage for stage in STAGES if stage not in ("sample", "grid", "measure", "buildings")]

@@ -29,9 +29,9 @@ timed apart on the same points), classify, blocks, eliminate (elimination), surf
 buildings per block (``buildings``: CityJSON only, in triangles read), layers and export are
 timed around them: the GIS layers' content (attribute rows and the WKB of the blocks,
 footprints and ground, their faces triangulated, as the Processing algorithms write them
-before any mesh file), the end of end to end; then apart a PLY and the gmsh .msh, the
-finite-element format, as text and in binary (the mesh triangulated for the PLY serves the
-others). Rates: read in
+before any mesh file), the end of end to end; then apart a PLY, the gmsh .msh, the
+finite-element format, as text and in binary, and ParaView's .vtu (the mesh triangulated for
+the PLY serves the others). Rates: read in
 points read (mesh: triangles), grid/ground in points, voxelise in building points, the voxel
 stages in voxels of the grid(s), and smoothing, projection, measure, export and layers in faces
 (quads) of the surface.
@@ -252,6 +252,10 @@ def _run_once(spec: dict, params, airborne: bool):
         lap = time.perf_counter()
         result.write_mesh(Path(tmp) / "mesh_binary.msh", binary=True)
         stages["export_msh_binary"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
+        # ParaView's format.
+        lap = time.perf_counter()
+        result.write_mesh(Path(tmp) / "mesh.vtu")
+        stages["export_vtu"] = {"s": time.perf_counter() - lap, "rss": _rss_mb()}
         # The picture the Processing algorithms draw beside every mesh file.
         lap = time.perf_counter()
         result.write_preview(Path(tmp) / "mesh.png")
