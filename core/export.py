@@ -197,7 +197,8 @@ def _write_stl(path: Path, model: SurfaceModel, world: np.ndarray, is_cancelled:
         for i, region in enumerate(regions):
             name = region_name(region)
             out.write(f"solid {name}\n".encode("ascii"))
-            blocks = [slice(start, min(start + _ROWS, bounds[i + 1])) for start in range(bounds[i], bounds[i + 1], _ROWS)]
+            blocks = [slice(start, min(start + _ROWS, bounds[i + 1]))
+                      for start in range(bounds[i], bounds[i + 1], _ROWS)]
             for text in map_ahead(facets, blocks):
                 out.write(text)
             out.write(f"endsolid {name}\n".encode("ascii"))

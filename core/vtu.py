@@ -1,6 +1,6 @@
 """VTK's XML unstructured grid (``.vtu``, ParaView) written from the arrays.
 
-A triangle mesh with three integer arrays per face, as ParaView reads it:
+A triangle mesh with arrays of numbers per triangle, as ParaView reads it:
 the points (Float64), the triangles (connectivity, offsets, types) and the
 cell data, each a zlib-compressed array in the file's appended section
 (``vtkZLibDataCompressor``, a UInt64 header: the number of blocks, the
@@ -67,14 +67,15 @@ def write_vtu(out: BinaryIO, points: np.ndarray, triangles: np.ndarray, cell_dat
         ("Cells", "connectivity", connectivity, 1),
         ("Cells", "offsets", offsets, 1),
         ("Cells", "types", lambda: np.full(m, _VTK_TRIANGLE, dtype=np.uint8), 1),
-    ] + [("CellData", name, lambda values=values: np.ascontiguousarray(values), 1) for name, values in cell_data.items()]
+    ] + [("CellData", name, lambda values=values: np.ascontiguousarray(values), 1)
+         for name, values in cell_data.items()]
 
-    compressed = []
+    compressed = []  # per array: its VTK type, its pieces of bytes
     for _, _, make, _ in arrays:
         values = make()
         compressed.append((_VTK_TYPES[values.dtype], _compressed(values, is_cancelled)))
         del values
-    places = np.concatenate([[0], np.cumsum([len(data) for _, data in compressed])])
+    places = np.concatenate([[0], np.cumsum([sum(map(len, pieces)) for _, pieces in compressed])])
 
     def element(k: int) -> str:
         (_, name, _, components), (kind, _) = arrays[k], compressed[k]
@@ -92,25 +93,16 @@ def write_vtu(out: BinaryIO, points: np.ndarray, triangles: np.ndarray, cell_dat
               f'<Piece NumberOfPoints="{n}" NumberOfCells="{m}">\n' + "\n".join(sections) +
               '\n</Piece>\n</UnstructuredGrid>\n<AppendedData encoding="raw">\n_')
     out.write(header.encode("ascii"))
-    for _, data in compressed:
-        for piece in data.pieces:
+    for _, pieces in compressed:
+        for piece in pieces:
             out.write(piece)
     out.write(b"\n</AppendedData>\n</VTKFile>\n")
 
 
-class _Compressed:
-    """An array as VTK's zlib compressor writes it: its header, then its blocks."""
-
-    def __init__(self, pieces: list[bytes]):
-        self.pieces = pieces
-
-    def __len__(self) -> int:
-        return sum(len(piece) for piece in self.pieces)
-
-
-def _compressed(values: np.ndarray, is_cancelled: Callable[[], bool] | None) -> _Compressed:
-    """``values``' bytes in blocks of :data:`BLOCK_BYTES`, each compressed
-    on the threads (zlib lets go of the GIL), with VTK's header before them."""
+def _compressed(values: np.ndarray, is_cancelled: Callable[[], bool] | None) -> list[bytes]:
+    """``values``' bytes as VTK's zlib compressor writes them: its header,
+    then the blocks of :data:`BLOCK_BYTES`, each compressed on the threads
+    (zlib lets go of the GIL)."""
     values = values.astype(values.dtype.newbyteorder("<"), copy=False)  # the file says LittleEndian
     raw = memoryview(values.reshape(-1).view(np.uint8))
     size = len(raw)
@@ -124,4 +116,4 @@ def _compressed(values: np.ndarray, is_cancelled: Callable[[], bool] | None) -> 
     blocks = map_blocks(compress, starts)
     last = size - (len(blocks) - 1) * BLOCK_BYTES if blocks else 0
     header = np.array([len(blocks), BLOCK_BYTES, last, *map(len, blocks)], dtype="<u8").tobytes()
-    return _Compressed([header, *blocks])
+    return [header, *blocks]
