@@ -193,7 +193,8 @@ class CatmullClarkStep:
 
 def undirected_edges(faces: np.ndarray, size: int) -> np.ndarray:
     """Each undirected edge of ``faces`` once, as its two ends, the lower
-    first, ordered by lower end then upper end, flat: ``[a0, b0, a1, b1, ...]``.
+    first, ordered by lower end then upper end, flat: ``[a0, b0, a1, b1, ...]``,
+    in the faces' integer type.
 
     Examples
     --------
@@ -207,7 +208,7 @@ def undirected_edges(faces: np.ndarray, size: int) -> np.ndarray:
     tail = faces.ravel()
     head = np.roll(faces, -1, axis=1).ravel()
     key = sorted_unique(np.minimum(tail, head).astype(np.int64) * size + np.maximum(tail, head))
-    return np.column_stack([key // size, key % size]).ravel()
+    return np.column_stack([key // size, key % size]).ravel().astype(faces.dtype, copy=False)
 
 
 def smooth(model: SurfaceModel, roles: NodeRoles, passes: int = 3, threshold: float = 0.2,

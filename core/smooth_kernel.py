@@ -112,45 +112,81 @@ def node_roles(quads: np.ndarray, regions: np.ndarray, nodes: np.ndarray, lower:
     return on_block, on_ground, foot, fixed_axes, movable
 
 
+#: Nodes per bucket of :func:`undirected_edges`' first pass (a power of two):
+#: a bucket's counts, insertion points and edges stay in the cache.
+_BUCKET_NODES = 1 << 12
+
+
 @compiled
 def undirected_edges(faces, size):
     """:func:`core.smooth.undirected_edges`: each node's edges to higher nodes
-    bucketed by a counting sort, each bucket (a few edges) sorted by
-    insertion and its repeats dropped, instead of a sort of every key: the
-    same rows (0.42 -> 0.19 s for the 1 km city's two surfaces, 2.5 M
-    faces)."""
+    by a counting sort on the lower end, each node's few sorted by insertion
+    and its repeats dropped, instead of a sort of every key: the same rows.
+
+    The counting sort runs in two passes, as a radix sort: the edges into
+    buckets of :data:`_BUCKET_NODES` consecutive lower ends, then each
+    bucket by its lower ends, in a table of its own. In one pass over all
+    the nodes, the counts and insertion points were tables as long as the
+    nodes, met at random by consecutive faces (7 M nodes at 0.5 m: 1.5-2.4
+    s, most of it cache misses). The edges kept are written back over the
+    buckets already read, then once into the result."""
     m, corners = faces.shape
-    start = np.zeros(size + 1, np.int64)
+    shift = 0
+    while (1 << shift) < _BUCKET_NODES:
+        shift += 1
+    width, buckets = 1 << shift, (size >> shift) + 1
+    start = np.zeros(buckets + 1, np.int64)
     for f in range(m):
         for c in range(corners):
             a, b = faces[f, c], faces[f, (c + 1) % corners]
-            start[min(a, b) + 1] += 1
-    for v in range(size):
-        start[v + 1] += start[v]
+            start[(min(a, b) >> shift) + 1] += 1
+    largest = 0
+    for k in range(buckets):
+        largest = max(largest, start[k + 1])
+        start[k + 1] += start[k]
     fill = start[:-1].copy()
-    high = np.empty(corners * m, np.int64)
+    low_of = np.empty(corners * m, faces.dtype)
+    high_of = np.empty(corners * m, faces.dtype)
     for f in range(m):
         for c in range(corners):
             a, b = faces[f, c], faces[f, (c + 1) % corners]
             low = min(a, b)
-            high[fill[low]] = max(a, b)
-            fill[low] += 1
-    ends = np.empty(2 * corners * m, np.int64)
-    e = 0
-    for v in range(size):
-        first, stop = start[v], start[v + 1]
-        for q in range(first + 1, stop):
-            x = high[q]
-            p = q - 1
-            while p >= first and high[p] > x:
-                high[p + 1] = high[p]
-                p -= 1
-            high[p + 1] = x
-        for q in range(first, stop):
-            if q == first or high[q] != high[q - 1]:
-                ends[2 * e], ends[2 * e + 1] = v, high[q]
-                e += 1
-    return ends[:2 * e]
+            k = low >> shift
+            low_of[fill[k]], high_of[fill[k]] = low, max(a, b)
+            fill[k] += 1
+    first_of = np.zeros(width + 1, np.int64)  # where each node's edges start in the bucket
+    at = np.empty(width, np.int64)
+    high = np.empty(largest, faces.dtype)  # a bucket's higher ends, by lower end
+    e = 0  # edges kept: written over the buckets already read
+    for k in range(buckets):
+        begin, stop, base = start[k], start[k + 1], k << shift
+        first_of[:] = 0
+        for q in range(begin, stop):
+            first_of[low_of[q] - base + 1] += 1
+        for v in range(width):
+            first_of[v + 1] += first_of[v]
+        at[:] = first_of[:-1]
+        for q in range(begin, stop):
+            v = low_of[q] - base
+            high[at[v]] = high_of[q]
+            at[v] += 1
+        for v in range(min(width, size - base)):
+            first, last = first_of[v], first_of[v + 1]
+            for q in range(first + 1, last):
+                x = high[q]
+                p = q - 1
+                while p >= first and high[p] > x:
+                    high[p + 1] = high[p]
+                    p -= 1
+                high[p + 1] = x
+            for q in range(first, last):
+                if q == first or high[q] != high[q - 1]:
+                    low_of[e], high_of[e] = base + v, high[q]
+                    e += 1
+    ends = np.empty(2 * e, faces.dtype)
+    for i in range(e):
+        ends[2 * i], ends[2 * i + 1] = low_of[i], high_of[i]
+    return ends
 
 
 def warm_up() -> int:
