@@ -18,7 +18,7 @@ import numpy as np
 
 from . import jit
 from .errors import UrbanvoxError
-from .heap import held_free_bytes
+from .heap import held_free_bytes, proc_bytes
 from .parallel import balanced_blocks, map_blocks, row_blocks
 
 #: Bytes per voxel the voxel stages hold at once with numpy's code: labels
@@ -552,14 +552,8 @@ def available_memory() -> int:
 
 def _system_available() -> int:
     """The system's available memory in bytes (``MemAvailable``); 8 GiB where unknown."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return 8 * 2**30
+    found = proc_bytes("/proc/meminfo", "MemAvailable")
+    return 8 * 2**30 if found is None else found
 
 
 #: Bytes per surface face (quad) that the surfaces, smoothing, projection and

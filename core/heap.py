@@ -366,20 +366,27 @@ def held_free_bytes() -> int:
     info = _MALLINFO2()
     region_free, region_live = array_heap.free_held()
     counted = info.fordblks + region_free
-    resident = _anonymous_resident() - (info.uordblks + info.hblkhd + region_live)
+    resident = (proc_bytes("/proc/self/status", "RssAnon") or 0) - (info.uordblks + info.hblkhd + region_live)
     return int(max(0, min(counted, resident)))
 
 
-def _anonymous_resident() -> int:
-    """This process's anonymous resident memory in bytes (``RssAnon``), 0 where unknown."""
+def proc_bytes(path: str, key: str) -> int | None:
+    """A ``key:  N kB`` line of a Linux ``/proc`` file (``/proc/meminfo``,
+    ``/proc/self/status``) in bytes; None where there is none.
+
+    Examples
+    --------
+    >>> proc_bytes("/no/such/file", "MemAvailable") is None
+    True
+    """
     try:
-        with open("/proc/self/status", encoding="ascii") as status:
-            for line in status:
-                if line.startswith("RssAnon:"):
+        with open(path, encoding="ascii") as lines:
+            for line in lines:
+                if line.startswith(key + ":"):
                     return int(line.split()[1]) * 1024
     except OSError:
         pass
-    return 0
+    return None
 
 
 def fault_in_ahead(nbytes: int) -> threading.Thread | None:
