@@ -45,6 +45,7 @@ _capsule = None
 _set_handler = None
 _tried = False
 _keep: list = []  # what numpy's handler points into: the struct and its name
+_free_handed_back = 0  # bytes of the free ranges when their pages were last handed back
 
 
 class _Allocator(ctypes.Structure):
@@ -174,7 +175,12 @@ def in_use_here() -> bool:
 
 def return_free_pages() -> int:
     """Hand the pages of the region's free ranges back to the system; the bytes."""
-    return 0 if _state is None else _kernel.return_free_pages(_state)
+    global _free_handed_back
+    if _state is None:
+        return 0
+    returned = _kernel.return_free_pages(_state)
+    _free_handed_back = sum(free_sizes())  # listed still, with no pages behind them
+    return returned
 
 
 def free_sizes() -> list[int]:
@@ -193,13 +199,16 @@ def region_in_use() -> tuple[int, int]:
 
 
 def free_held() -> tuple[int, int]:
-    """Bytes the region holds free (its free ranges, and the pages faulted
-    in above its top), and bytes its arrays take (below its top, less the
-    free ranges): :func:`core.heap.held_free_bytes`."""
+    """Bytes the region holds free in pages (its free ranges beyond those
+    handed back, and the pages faulted in above its top), and bytes its
+    arrays take (below its top, less the free ranges):
+    :func:`core.heap.held_free_bytes`."""
     if _state is None:
         return 0, 0
     top, free = region_in_use()
-    return free + max(0, int(_state[_kernel.HIGH]) - top), top - free
+    # The ranges free when the pages were last handed back have none (some
+    # faulted in again since are left out, on the safe side).
+    return max(0, free - _free_handed_back) + max(0, int(_state[_kernel.HIGH]) - top), top - free
 
 
 def ahead_of_top(nbytes: int, least: int) -> list[tuple[int, int]]:

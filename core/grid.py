@@ -404,6 +404,8 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
     needed = n * bytes_per_voxel + for_points
     if available is None:
         available = available_memory()
+    if not available > 0:  # a max_memory of 0 or NaN given to the core
+        raise UrbanvoxError(f"The memory a run may use must be a positive number of bytes (got {available}).")
     if needed > available:
         what = f"The voxel grid ({shape[0]} x {shape[1]} x {shape[2]} = {n} voxels at {voxel_size:g})"
         if points:
@@ -415,30 +417,46 @@ def check_memory(shape: tuple[int, int, int], voxel_size: float, available: int 
         tiles_fit = tile >= _SMALLEST_TILE_VOXELS * voxel_size \
             and shape[0] * shape[1] * BYTES_PER_COLUMN <= available
         end = f", or tiles of at most {tile:g} (TILE_SIZE)." if tile_hint and tiles_fit else "."
-        if for_points >= available:
+        # Voxel count scales with 1/size^3 (2-D extent) or at least 1/size^2:
+        # the cube-root scaling is suggested, for what the points leave; where
+        # even that grid would not fit beside them, no voxel size helps.
+        size = fitting_voxel_size(needed, available, voxel_size, 3, fixed=for_points)
+        coarser = math.prod(max(1, math.ceil(int(side) * voxel_size / size)) for side in shape)
+        if coarser * bytes_per_voxel + for_points > available:
             raise UrbanvoxError(f"{what} needs about {_gib(needed)} GiB but only {_gib(available)} GiB is "
                                 f"available. The points alone need {_gib(for_points)} GiB: use a smaller area"
                                 f"{end}")
-        # Voxel count scales with 1/size^3 (2-D extent) or at least 1/size^2:
-        # the cube-root scaling is suggested, for what the points leave.
         raise memory_error(what, needed, available, voxel_size, 3, end, fixed=for_points)
     return needed
+
+
+def fitting_voxel_size(needed: int, available: int, voxel_size: float, dimensions: int, fixed: int = 0) -> float:
+    """The voxel size at which ``needed`` bytes of ``voxel_size`` fit in
+    ``available``, where the bytes beyond ``fixed`` scale with
+    1/size^``dimensions`` (rounded up, 5 % to spare); ``inf`` where ``fixed``
+    alone takes ``available``.
+
+    Examples
+    --------
+    >>> fitting_voxel_size(8 * 2**30, 2**30, 0.5, 3)
+    1.1
+    """
+    if fixed >= available:
+        return math.inf
+    return rounded_up(voxel_size * ((needed - fixed) / (available - fixed)) ** (1.0 / dimensions) * 1.05)
 
 
 def memory_error(what: str, needed: int, available: int, voxel_size: float, dimensions: int,
                  end: str = ".", fixed: int = 0) -> UrbanvoxError:
     """The error for ``what`` needing ``needed`` bytes of ``available``: the
-    estimate, and the voxel size that fits where the bytes beyond ``fixed``
-    (below ``available``) scale with 1/size^``dimensions`` (rounded up, 5 %
-    to spare), then ``end``.
+    estimate, and the voxel size that fits (:func:`fitting_voxel_size`), then ``end``.
 
     Examples
     --------
     >>> print(memory_error("The grid", 8 * 2**30, 2**30, 0.5, 3))
     The grid needs about 8.0 GiB but only 1.0 GiB is available. Use a voxel size of at least 1.1, or a smaller area.
     """
-    scale = (needed - fixed) / (available - fixed)
-    suggestion = rounded_up(voxel_size * scale ** (1.0 / dimensions) * 1.05)
+    suggestion = fitting_voxel_size(needed, available, voxel_size, dimensions, fixed)
     return UrbanvoxError(f"{what} needs about {_gib(needed)} GiB but only {_gib(available)} GiB is available. "
                          f"Use a voxel size of at least {suggestion:g}, or a smaller area{end}")
 

@@ -104,6 +104,8 @@ _huge_pages: bool | None = None  # numpy's setting before the first run
 _release_timer: threading.Timer | None = None
 _ahead: threading.Thread | None = None  # the thread of fault_in_ahead, while it runs
 _ahead_stop = threading.Event()
+#: glibc's free bytes just after the last malloc_trim (:func:`give_back`): they hold no pages.
+_free_handed_back = 0
 
 
 def _glibc() -> ctypes.CDLL | None:
@@ -331,8 +333,11 @@ def give_back() -> None:
     once its points are read and sorted, only waits for the workers' pieces
     while they run (see :func:`core.tiles.reconstruct_tiled`).
     """
+    global _free_handed_back
     if _LIBC is not None:
         _LIBC.malloc_trim(0)
+        # The free chunks stay in glibc's count with no pages behind them.
+        _free_handed_back = _MALLINFO2().fordblks if _MALLINFO2 is not None else 0
 
 
 def held_free_bytes() -> int:
@@ -348,11 +353,13 @@ def held_free_bytes() -> int:
     stages freed gigabytes, a batch's next run) saw that memory as taken.
 
     Two figures each hold at least that memory, and the smaller is taken:
-    the heaps' own count of their free bytes (which also counts pages handed
-    back earlier, and so counted in ``MemAvailable`` already), and the
-    process's anonymous resident memory less what the heaps' live blocks
-    take (which also counts Python's own small-object arenas). 0 where glibc
-    cannot say (before 2.33, or another C library).
+    the heaps' own count of their free bytes beyond what they held free when
+    they last handed their pages back (those are in ``MemAvailable``
+    already; free memory faulted in again since is then left out, on the
+    safe side), and the process's anonymous resident memory less what the
+    heaps' live blocks take (which also counts Python's own small-object
+    arenas and other libraries' mappings). 0 where glibc cannot say (before
+    2.33, or another C library).
 
     Examples
     --------
@@ -365,7 +372,7 @@ def held_free_bytes() -> int:
 
     info = _MALLINFO2()
     region_free, region_live = array_heap.free_held()
-    counted = info.fordblks + region_free
+    counted = max(0, info.fordblks - _free_handed_back) + region_free
     resident = (proc_bytes("/proc/self/status", "RssAnon") or 0) - (info.uordblks + info.hblkhd + region_live)
     return int(max(0, min(counted, resident)))
 

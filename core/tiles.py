@@ -34,6 +34,7 @@ importable on its workers), see :mod:`core.workers`.
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -87,9 +88,13 @@ class TileOptions:
     scheduler: str | None = None
 
     def __post_init__(self):
-        if int(self.workers) != self.workers or self.workers < 0:
+        # Refused as the options are made, before the points are read.
+        workers = 0 if self.workers is None else self.workers
+        if not (isinstance(workers, (int, np.integer, float)) and math.isfinite(workers)
+                and workers == int(workers) and workers >= 0):
             raise UrbanvoxError(f"The number of workers must be a whole number, 0 or 1 to run the tiles in this "
                                 f"process, more for a local Dask cluster (got {self.workers}).")
+        self.columns(1.0)  # the tile size
 
     def columns(self, voxel_size_m: float) -> tuple[int, int]:
         """Tile side and halo width in columns."""

@@ -38,15 +38,15 @@ BLOCK_BYTES = 1 << 20
 LEVEL = 1
 #: VTK's cell type of a triangle.
 _VTK_TRIANGLE = 5
-#: numpy's dtypes by VTK's names.
-_VTK_TYPES = {np.dtype(np.float64): "Float64", np.dtype(np.int64): "Int64", np.dtype(np.int32): "Int32",
-              np.dtype(np.uint8): "UInt8"}
+#: VTK's names of numpy's number types (little-endian, as the file says).
+_VTK_TYPES = {np.dtype(f"<{kind}{size}"): f"{name}{8 * size}" for kind, name in (("i", "Int"), ("u", "UInt"))
+              for size in (1, 2, 4, 8)} | {np.dtype("<f4"): "Float32", np.dtype("<f8"): "Float64"}
 
 
 def write_vtu(out: BinaryIO, points: np.ndarray, triangles: np.ndarray, cell_data: dict[str, np.ndarray],
               is_cancelled: Callable[[], bool] | None = None) -> None:
     """Write the triangles (T, 3) on ``points`` (N, 3) and one array per
-    triangle of ``cell_data`` (int32 or float64) to ``out`` as a ``.vtu``.
+    triangle of ``cell_data`` (integers or floats) to ``out`` as a ``.vtu``.
 
     The node numbers, offsets and cell data are written as 32-bit integers
     where they fit. ``is_cancelled`` is asked between blocks
@@ -55,6 +55,10 @@ def write_vtu(out: BinaryIO, points: np.ndarray, triangles: np.ndarray, cell_dat
     """
     n, m = len(points), len(triangles)
     index = np.int32 if max(n, 3 * m) < 2**31 else np.int64
+    cell_data = {name: values.view(np.uint8) if values.dtype == bool else values for name, values in cell_data.items()}
+    for name, values in cell_data.items():
+        if len(values) != m or np.dtype(values.dtype).newbyteorder("<") not in _VTK_TYPES:
+            raise ValueError(f"cell data {name!r}: {len(values)} numbers of {values.dtype} for {m} triangles")
 
     def connectivity() -> np.ndarray:
         return np.ascontiguousarray(triangles, dtype=index)
@@ -73,6 +77,7 @@ def write_vtu(out: BinaryIO, points: np.ndarray, triangles: np.ndarray, cell_dat
     compressed = []  # per array: its VTK type, its pieces of bytes
     for _, _, make, _ in arrays:
         values = make()
+        values = values.astype(values.dtype.newbyteorder("<"), copy=False)  # the file says LittleEndian
         compressed.append((_VTK_TYPES[values.dtype], _compressed(values, is_cancelled)))
         del values
     places = np.concatenate([[0], np.cumsum([sum(map(len, pieces)) for _, pieces in compressed])])
@@ -103,7 +108,6 @@ def _compressed(values: np.ndarray, is_cancelled: Callable[[], bool] | None) -> 
     """``values``' bytes as VTK's zlib compressor writes them: its header,
     then the blocks of :data:`BLOCK_BYTES`, each compressed on the threads
     (zlib lets go of the GIL)."""
-    values = values.astype(values.dtype.newbyteorder("<"), copy=False)  # the file says LittleEndian
     raw = memoryview(values.reshape(-1).view(np.uint8))
     size = len(raw)
     starts = range(0, size, BLOCK_BYTES)

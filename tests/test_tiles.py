@@ -181,6 +181,15 @@ def test_bad_tile_size_is_refused(district):
                                 tiles=TileOptions(tile_size=-5.0))
 
 
+@pytest.mark.parametrize("options", [dict(tile_size=float("nan")), dict(tile_size=0.0), dict(workers=-1),
+                                     dict(workers=float("nan")), dict(workers=1.5)])
+def test_bad_tile_options_are_refused_as_they_are_made(options):
+    # Before a point is read (the command line makes them first), with the message, not a crash.
+    with pytest.raises(UrbanvoxError, match="tile size must be|number of workers must be"):
+        TileOptions(**options)
+    assert TileOptions(workers=None).workers is None  # as 0: the tiles in this process
+
+
 def test_memory_guard_suggests_a_tile_size():
     with pytest.raises(UrbanvoxError, match=r"tiles of at most (\d+) \(TILE_SIZE\)") as error:
         check_memory((6000, 6000, 100), 1.0, available=4 * 2**30, tile_hint=True)

@@ -154,10 +154,15 @@ def test_memory_guard_counts_the_points_and_suggests_what_fits():
     side = int(tile / 0.5) + 24
     check_memory((side, side, 100), 0.5, available=available, bytes_per_voxel=10,
                  points=points * side * side // (shape[0] * shape[1]))
-    # Points beyond the memory whatever the voxels: no voxel size is suggested.
+    # Points beyond the memory whatever the voxels, or leaving too little for any grid: no
+    # voxel size is suggested.
     with pytest.raises(UrbanvoxError, match="The points alone need 4.5 GiB: use a smaller area") as error:
         check_memory((10, 10, 10), 1.0, available=2**30, points=10**8)
     assert "voxel size of at least" not in str(error.value)
+    with pytest.raises(UrbanvoxError, match="The points alone need 1.00 GiB: use a smaller area"):
+        check_memory((4000, 4000, 100), 1.0, available=2**30, bytes_per_voxel=10, points=(2**30 - 1) // 48)
+    with pytest.raises(UrbanvoxError, match="must be a positive number of bytes"):
+        check_memory((10, 10, 10), 1.0, available=0)
 
 
 def test_height_field_repair_removes_diagonal_patterns():
