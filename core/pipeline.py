@@ -44,11 +44,11 @@ from .clusters import split_clusters
 from .crs import metres_per_unit, resolve_crs
 from .eliminate import eliminate_unsupported
 from .errors import Cancelled, UrbanvoxError
-from .grid import (GridWindow, available_memory, check_face_memory, check_memory, sparse_points_warning,
-                   voxel_bytes)
+from .grid import GridWindow, sparse_points_warning
 from .ground import GroundLevel, NearGround, column_ground_level
 from .heap import THREAD_HEAP_FRESH, fault_in_ahead, reusing_freed_memory, use_array_heap_here
 from .inputs import ReconstructionParams, checked_points
+from .memory import available_memory, check_face_memory, check_memory, voxel_bytes
 from .manifold import make_well_composed, repair_height_field
 from .measure import block_face_split, extreme_per_block, measure_blocks
 from .neighbours import nearest_distance, point_index, search_of_first

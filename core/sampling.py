@@ -31,7 +31,7 @@ import numpy as np
 
 from . import jit
 from .errors import Cancelled, UrbanvoxError
-from .grid import memory_error
+from .memory import memory_error
 from .topology import run_starts, sorted_unique
 
 #: Bytes per point of :func:`sample_thinned` while its chunks' cells are merged

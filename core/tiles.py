@@ -45,11 +45,12 @@ import numpy as np
 from . import jit
 from .blocks import BlockTable
 from .errors import UrbanvoxError
-from .grid import BIN_CHUNK, GridWindow, available_memory, check_column_memory
+from .grid import BIN_CHUNK, GridWindow
 from .heap import give_back
 from .ground import GroundLevel, column_ground_level
 from .manifold import repair_height_field
 from .measure import BlockMeasures
+from .memory import available_memory, check_column_memory
 from .parallel import in_background
 from .progress import Text, part
 from .reconstruction import NO_BLOCK, Reconstruction

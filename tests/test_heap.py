@@ -257,14 +257,14 @@ def test_a_runs_memory_is_faulted_in_ahead_and_handed_back(process):
 _HELD_PROBE = """
 import sys
 import numpy as np
-from core import array_heap, grid, heap
+from core import array_heap, heap, memory
 
 assert heap.host_threads() == (sys.argv[1] == "host") and (sys.argv[1] != "host" or array_heap.available())
-grid._system_available = lambda: 0  # what the guard counts beyond the system's figure
+memory._system_available = lambda: 0  # what the guard counts beyond the system's figure
 start = heap.held_free_bytes()
 with heap.reusing_freed_memory():
     block = np.ones(400 * 2**20 // 8); del block  # 400 MB written, then freed: the heap keeps it
-    held, counted = heap.held_free_bytes(), grid.available_memory()
+    held, counted = heap.held_free_bytes(), memory.available_memory()
     again = np.ones(300 * 2**20 // 8)  # takes 300 MB of it
     left = heap.held_free_bytes()
     del again

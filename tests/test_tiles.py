@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from core.errors import Cancelled, UrbanvoxError
-from core.grid import GridWindow, check_memory
+from core.grid import GridWindow
+from core.memory import check_memory
 from core.pipeline import ReconstructionParams, reconstruct_point_cloud
 from core.surface import AIR_REGION, GROUND_REGION
 from core.tiles import TileOptions, initial_windows, plan_tiles
@@ -211,7 +212,7 @@ def test_memory_guard_suggests_tiles_only_where_they_would_fit():
 
 
 def test_a_tiled_domain_too_wide_for_its_columns_is_refused_before_allocating(district):
-    from core.grid import check_column_memory
+    from core.memory import check_column_memory
 
     params = ReconstructionParams(voxel_size=2.0, max_memory=2**16)  # 64 kiB: the district's columns need more
     with pytest.raises(UrbanvoxError, match="The ground level of the domain"):

@@ -9,9 +9,10 @@ from core.blocks import block_attributes, label_blocks, small_blocks
 from core.classify import AIR, BUILDING, GROUND, classify_voxels, roof_hole_columns
 from core.eliminate import eliminate_unsupported
 from core.errors import UrbanvoxError
-from core.grid import VoxelGrid, check_memory
+from core.grid import VoxelGrid
 from core.ground import column_ground_level
 from core.manifold import make_well_composed, repair_height_field
+from core.memory import check_memory
 from core.surface import AIR_REGION, GROUND_REGION, SurfaceModel, region_volume
 from core.topology import check_surface, signed_volume
 
