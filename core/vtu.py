@@ -29,8 +29,8 @@ from typing import BinaryIO, Callable
 
 import numpy as np
 
-from .errors import Cancelled
 from .parallel import map_blocks
+from .progress import CancelCheck, check_cancel
 
 #: Uncompressed bytes of a compressed block (VTK's readers take any size).
 BLOCK_BYTES = 1 << 20
@@ -44,7 +44,7 @@ _VTK_TYPES = {np.dtype(f"<{kind}{size}"): f"{name}{8 * size}" for kind, name in 
 
 
 def write_vtu(out: BinaryIO, points: np.ndarray, triangles: np.ndarray, cell_data: dict[str, np.ndarray],
-              is_cancelled: Callable[[], bool] | None = None) -> None:
+              is_cancelled: CancelCheck | None = None) -> None:
     """Write the triangles (T, 3) on ``points`` (N, 3) and one array per
     triangle of ``cell_data`` (integers or floats) to ``out`` as a ``.vtu``.
 
@@ -57,7 +57,7 @@ def write_vtu(out: BinaryIO, points: np.ndarray, triangles: np.ndarray, cell_dat
     index = np.int32 if max(n, 3 * m) < 2**31 else np.int64
     cell_data = {name: values.view(np.uint8) if values.dtype == bool else values for name, values in cell_data.items()}
     for name, values in cell_data.items():
-        if len(values) != m or np.dtype(values.dtype).newbyteorder("<") not in _VTK_TYPES:
+        if len(values) != m or values.dtype.newbyteorder("<") not in _VTK_TYPES:
             raise ValueError(f"cell data {name!r}: {len(values)} numbers of {values.dtype} for {m} triangles")
 
     def connectivity() -> np.ndarray:
@@ -104,7 +104,7 @@ def write_vtu(out: BinaryIO, points: np.ndarray, triangles: np.ndarray, cell_dat
     out.write(b"\n</AppendedData>\n</VTKFile>\n")
 
 
-def _compressed(values: np.ndarray, is_cancelled: Callable[[], bool] | None) -> list[bytes]:
+def _compressed(values: np.ndarray, is_cancelled: CancelCheck | None) -> list[bytes]:
     """``values``' bytes as VTK's zlib compressor writes them: its header,
     then the blocks of :data:`BLOCK_BYTES`, each compressed on the threads
     (zlib lets go of the GIL)."""
@@ -113,8 +113,7 @@ def _compressed(values: np.ndarray, is_cancelled: Callable[[], bool] | None) -> 
     starts = range(0, size, BLOCK_BYTES)
 
     def compress(start: int) -> bytes:
-        if is_cancelled is not None and is_cancelled():
-            raise Cancelled()
+        check_cancel(is_cancelled)
         return zlib.compress(raw[start:start + BLOCK_BYTES], LEVEL)
 
     blocks = map_blocks(compress, starts)
