@@ -110,9 +110,7 @@ def kernels(name: str, size: int | None = None) -> ModuleType | None:
     others kept off, 1.26-1.28 s with them. ``URBANVOX_JIT=always`` loads
     them for any size from the start (the tests use it).
     """
-    if not enabled():
-        return None
-    if size is not None and size < WORTHWHILE and not _any_loaded() and not _always():
+    if not enabled() or _too_small(size):
         return None
     with _lock:
         if name not in _loaded:
@@ -150,9 +148,14 @@ def expected(size: int) -> bool:
     False
     >>> _ = os.environ.pop("URBANVOX_JIT") if before is None else os.environ.update(URBANVOX_JIT=before)
     """
-    if not enabled() or (size < WORTHWHILE and not _any_loaded() and not _always()):
+    if not enabled() or _too_small(size):
         return False
     return importlib.util.find_spec("numba") is not None
+
+
+def _too_small(size: int | None) -> bool:
+    """Whether work of ``size`` elements is too small to load kernels for (see :func:`kernels`)."""
+    return size is not None and size < WORTHWHILE and not _any_loaded() and not _always()
 
 
 def ready(name: str) -> bool:
